@@ -1,0 +1,99 @@
+//! The one error type of the crate.
+//!
+//! Every fallible public function returns [`Result<T>`]. Variants name the parameter (or field,
+//! or solver), the offending value, and what is allowed, so that a message can be acted upon.
+
+use std::fmt;
+
+/// Errors returned by the public API.
+#[non_exhaustive]
+#[derive(Debug, Clone, PartialEq)]
+pub enum Error {
+    /// A parameter is outside its allowed range.
+    InvalidParameter {
+        /// Name of the parameter, as in the API (e.g. `"dt"`, `"spacing[1]"`).
+        name: &'static str,
+        /// The value that was given, formatted.
+        value: String,
+        /// What is allowed (e.g. `"a finite number > 0"`).
+        allowed: &'static str,
+    },
+    /// A combination of settings that a component cannot handle.
+    Unsupported {
+        /// The component that refuses (e.g. `"SpectralSolver"`).
+        component: &'static str,
+        /// What was asked and what to do instead.
+        detail: String,
+    },
+    /// An iterative solver did not reach its tolerance.
+    NoConvergence {
+        /// Name of the solver.
+        solver: &'static str,
+        /// Iterations performed.
+        iterations: usize,
+        /// Relative residual (or change) reached.
+        residual: f64,
+        /// The tolerance that was asked for.
+        tolerance: f64,
+    },
+    /// A NaN or infinity appeared in a field.
+    NonFinite {
+        /// The field that holds it (e.g. `"velocity.u"`).
+        field: &'static str,
+        /// Interior cell index (i, j, k) of the first non-finite value found.
+        cell: [usize; 3],
+    },
+    /// Reading or writing a file failed.
+    Io {
+        /// The path involved.
+        path: String,
+        /// The operating-system message.
+        message: String,
+    },
+}
+
+impl Error {
+    /// Shorthand for [`Error::InvalidParameter`].
+    pub fn invalid(name: &'static str, value: impl fmt::Display, allowed: &'static str) -> Self {
+        Error::InvalidParameter { name, value: value.to_string(), allowed }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::InvalidParameter { name, value, allowed } => {
+                write!(f, "invalid parameter `{name}` = {value}: allowed is {allowed}")
+            }
+            Error::Unsupported { component, detail } => write!(f, "{component}: {detail}"),
+            Error::NoConvergence { solver, iterations, residual, tolerance } => write!(
+                f,
+                "{solver} did not converge: residual {residual:.3e} after {iterations} iterations \
+                 (tolerance {tolerance:.1e}); reduce dt or raise the iteration limit"
+            ),
+            Error::NonFinite { field, cell } => {
+                write!(f, "non-finite value in field `{field}` at cell {cell:?}; reduce dt")
+            }
+            Error::Io { path, message } => write!(f, "I/O error on `{path}`: {message}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// Result type of the crate.
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Returns `Ok(x)` if `x` is finite and strictly positive, else an [`Error::InvalidParameter`].
+pub(crate) fn positive<T: crate::Real>(name: &'static str, x: T) -> Result<T> {
+    if x.is_finite() && x > T::zero() {
+        Ok(x)
+    } else {
+        Err(Error::invalid(name, x, "a finite number > 0"))
+    }
+}
+
+/// Returns `Ok(x)` if `x` is finite, else an [`Error::InvalidParameter`].
+pub(crate) fn finite<T: crate::Real>(name: &'static str, x: T) -> Result<T> {
+    if x.is_finite() { Ok(x) } else { Err(Error::invalid(name, x, "a finite number")) }
+}

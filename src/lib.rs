@@ -1,0 +1,29 @@
+//! # eulermembrane
+//!
+//! Full Eulerian simulation of elastic capsules and red blood cells in incompressible viscous
+//! flow, after Ii, Gong, Sugiyama, Wu, Huang & Takagi, *A full Eulerian fluid-membrane coupling
+//! method with a smoothed volume-of-fluid approach* (Commun. Comput. Phys. 2012). The membrane
+//! lives on the fluid's fixed Cartesian grid as a smoothed volume-of-fluid function `phi` and a
+//! surface deformation tensor `G_s`: no markers, no surface mesh. Equation numbers such as
+//! (2.35) in this documentation refer to that paper.
+//!
+//! Modules, in the order the data flows:
+//! - [`grid`]: the staggered (MAC) grid, boundaries, fields and discrete operators;
+//! - [`interface`]: geometry from `phi`, MTHINC advection, convolved-curvature advection, shapes;
+//! - [`membrane`]: surface constitutive laws, stress, Jacobian, bending, `G_s` transport;
+//! - [`fluid`]: Poisson/Helmholtz solvers, Krylov and SOR, the projection stepper;
+//! - [`diagnostics`] and [`io`]: measurements, plots, ParaView output.
+#![warn(missing_docs)]
+
+pub mod diagnostics;
+pub mod error;
+pub mod fluid;
+pub mod grid;
+pub mod interface;
+pub mod io;
+pub mod membrane;
+pub mod real;
+pub mod tensor;
+
+pub use error::{Error, Result};
+pub use real::Real;
