@@ -40,7 +40,11 @@ pub const fn sym_index(i: usize, j: usize) -> usize {
 /// Expands a symmetric tensor to a full 3x3 matrix.
 #[inline]
 pub fn sym_to_mat<T: Real>(a: &Sym<T>) -> Mat3<T> {
-    [[a[XX], a[XY], a[ZX]], [a[XY], a[YY], a[YZ]], [a[ZX], a[YZ], a[ZZ]]]
+    [
+        [a[XX], a[XY], a[ZX]],
+        [a[XY], a[YY], a[YZ]],
+        [a[ZX], a[YZ], a[ZZ]],
+    ]
 }
 
 /// Symmetric part of a full matrix, as a [`Sym`].
@@ -88,7 +92,10 @@ pub fn trace<T: Real>(a: &Sym<T>) -> T {
 #[inline]
 pub fn ddot<T: Real>(a: &Sym<T>, b: &Sym<T>) -> T {
     let two = T::lit(2.0);
-    a[XX] * b[XX] + a[YY] * b[YY] + a[ZZ] * b[ZZ] + two * (a[XY] * b[XY] + a[YZ] * b[YZ] + a[ZX] * b[ZX])
+    a[XX] * b[XX]
+        + a[YY] * b[YY]
+        + a[ZZ] * b[ZZ]
+        + two * (a[XY] * b[XY] + a[YZ] * b[YZ] + a[ZX] * b[ZX])
 }
 
 /// Product `A B` of two full matrices.
@@ -149,9 +156,7 @@ mod tests {
         let pn = sym_mul_vec(&p, &n);
         assert!(pn.iter().all(|x| x.abs() < 1e-15));
         let pp = project(&p, &identity::<f64>());
-        for c in 0..6 {
-            assert!((pp[c] - p[c]).abs() < 1e-15);
-        }
+        assert!(pp.iter().zip(&p).all(|(a, b)| (a - b).abs() < 1e-15));
         assert!((trace(&p) - 2.0).abs() < 1e-15);
     }
 

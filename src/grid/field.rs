@@ -1,0 +1,348 @@
+//! Fields on the grid: [`Field`] (one scalar per cell or per face), [`VectorField`] (the
+//! staggered velocity, or any face vector) and [`SymField`] (symmetric tensors at cell centres),
+//! and the one routine that fills their ghost layers.
+//!
+//! Ghost filling is the only place where boundary conditions enter a field; a future domain
+//! decomposition replaces it without touching the kernels.
+
+use super::{Boundary, GHOST, Grid};
+use crate::Real;
+use crate::tensor::SYM_PAIRS;
+
+/// One scalar per cell (or per face of one orientation), with ghost layers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field<T> {
+    /// Storage, x fastest, `grid.len()` values; index with [`Grid::idx`].
+    pub data: Vec<T>,
+}
+
+/// How a ghost layer is filled on one side of one axis.
+#[derive(Debug, Clone, Copy)]
+enum Side<T> {
+    Periodic,
+    /// Cell-centred value reflected about the wall: `ghost = offset + sign * mirror`.
+    Cell {
+        sign: T,
+        offset: T,
+    },
+    /// Face value on the wall set to `value`, ghosts reflected antisymmetrically about it.
+    Face {
+        value: T,
+    },
+}
+
+impl<T: Real> Field<T> {
+    /// A field of zeros on `grid`.
+    pub fn zeros(grid: &Grid<T>) -> Self {
+        Field {
+            data: vec![T::zero(); grid.len()],
+        }
+    }
+
+    /// A cell-centred field sampled at cell centres (interior and ghosts) from `f(x)`.
+    pub fn from_cell_fn(grid: &Grid<T>, f: impl Fn([T; 3]) -> T) -> Self {
+        let mut out = Self::zeros(grid);
+        let g = GHOST as isize;
+        let [dx, dy, dz] = grid.dims();
+        for k in -g..dz as isize - g {
+            for j in -g..dy as isize - g {
+                for i in -g..dx as isize - g {
+                    out.data[grid.idx(i, j, k)] = f(grid.cell_center(i, j, k));
+                }
+            }
+        }
+        out
+    }
+
+    /// Value at cell `(i, j, k)` (ghost indices allowed).
+    #[inline(always)]
+    pub fn at(&self, grid: &Grid<T>, i: isize, j: isize, k: isize) -> T {
+        self.data[grid.idx(i, j, k)]
+    }
+
+    /// Sets every value, ghosts included, to `v`.
+    pub fn fill(&mut self, v: T) {
+        self.data.iter_mut().for_each(|x| *x = v);
+    }
+
+    /// Copies `other` into `self`.
+    pub fn copy_from(&mut self, other: &Self) {
+        self.data.copy_from_slice(&other.data);
+    }
+
+    /// Fills the ghost layers of a cell-centred scalar: periodic copies, or a zero normal
+    /// gradient (even reflection) at walls.
+    pub fn fill_ghosts(&mut self, grid: &Grid<T>) {
+        let even = Side::Cell {
+            sign: T::one(),
+            offset: T::zero(),
+        };
+        for axis in 0..3 {
+            let sides = side_pair(grid, axis, |_| even);
+            fill_axis(&mut self.data, grid, axis, sides);
+        }
+    }
+
+    /// Sum over interior cells in a fixed order (reproducible run to run).
+    pub fn interior_sum(&self, grid: &Grid<T>) -> T {
+        let mut total = T::zero();
+        for (i, j, k) in grid.cells() {
+            total += self.data[grid.idx_u(i, j, k)];
+        }
+        total
+    }
+
+    /// The first interior cell holding a NaN or infinity, if any.
+    pub fn first_non_finite(&self, grid: &Grid<T>) -> Option<[usize; 3]> {
+        grid.cells()
+            .find(|&(i, j, k)| !self.data[grid.idx_u(i, j, k)].is_finite())
+            .map(|(i, j, k)| [i, j, k])
+    }
+}
+
+/// A staggered vector: component `d` on the lower faces normal to axis `d` (the velocity `v`,
+/// a pressure gradient, a face force).
+#[derive(Debug, Clone, PartialEq)]
+pub struct VectorField<T> {
+    /// Components `[u, v, w]`.
+    pub c: [Field<T>; 3],
+}
+
+impl<T: Real> VectorField<T> {
+    /// Zero vector field.
+    pub fn zeros(grid: &Grid<T>) -> Self {
+        VectorField {
+            c: std::array::from_fn(|_| Field::zeros(grid)),
+        }
+    }
+
+    /// Samples `f(x)[d]` at the face positions of each component `d` (ghosts included).
+    pub fn from_fn(grid: &Grid<T>, f: impl Fn([T; 3]) -> [T; 3]) -> Self {
+        let mut out = Self::zeros(grid);
+        let g = GHOST as isize;
+        let [dx, dy, dz] = grid.dims();
+        for d in 0..3 {
+            for k in -g..dz as isize - g {
+                for j in -g..dy as isize - g {
+                    for i in -g..dx as isize - g {
+                        out.c[d].data[grid.idx(i, j, k)] = f(grid.face_center(d, i, j, k))[d];
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Copies `other` into `self`.
+    pub fn copy_from(&mut self, other: &Self) {
+        for d in 0..3 {
+            self.c[d].copy_from(&other.c[d]);
+        }
+    }
+
+    /// Fills ghost layers as a velocity: periodic copies; at a wall, the normal component is set
+    /// to zero on the wall face and reflected antisymmetrically, and each tangential component
+    /// is reflected about the wall velocity (`ghost = 2 U_wall - mirror`, no slip).
+    pub fn fill_ghosts(&mut self, grid: &Grid<T>) {
+        let two = T::lit(2.0);
+        for (d, comp) in self.c.iter_mut().enumerate() {
+            for axis in 0..3 {
+                let sides = side_pair(grid, axis, |b: Boundary<T>| {
+                    if axis == d {
+                        Side::Face { value: T::zero() }
+                    } else {
+                        Side::Cell {
+                            sign: -T::one(),
+                            offset: two * b.velocity()[d],
+                        }
+                    }
+                });
+                fill_axis(&mut comp.data, grid, axis, sides);
+            }
+        }
+    }
+
+    /// The first interior non-finite value: `(component, cell)`.
+    pub fn first_non_finite(&self, grid: &Grid<T>) -> Option<(usize, [usize; 3])> {
+        (0..3).find_map(|d| self.c[d].first_non_finite(grid).map(|c| (d, c)))
+    }
+}
+
+/// A symmetric tensor per cell centre, six components in the order of [`crate::tensor`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SymField<T> {
+    /// Components `(11, 22, 33, 12, 23, 31)`.
+    pub c: [Field<T>; 6],
+}
+
+impl<T: Real> SymField<T> {
+    /// Zero tensor field.
+    pub fn zeros(grid: &Grid<T>) -> Self {
+        SymField {
+            c: std::array::from_fn(|_| Field::zeros(grid)),
+        }
+    }
+
+    /// The tensor at storage index `idx`.
+    #[inline(always)]
+    pub fn get(&self, idx: usize) -> [T; 6] {
+        std::array::from_fn(|c| self.c[c].data[idx])
+    }
+
+    /// Stores tensor `a` at storage index `idx`.
+    #[inline(always)]
+    pub fn set(&mut self, idx: usize, a: &[T; 6]) {
+        for (comp, &x) in self.c.iter_mut().zip(a) {
+            comp.data[idx] = x;
+        }
+    }
+
+    /// Copies `other` into `self`.
+    pub fn copy_from(&mut self, other: &Self) {
+        for c in 0..6 {
+            self.c[c].copy_from(&other.c[c]);
+        }
+    }
+
+    /// Fills ghost layers: periodic copies, or the mirror image at a wall (components with
+    /// exactly one index normal to the wall change sign).
+    pub fn fill_ghosts(&mut self, grid: &Grid<T>) {
+        for (c, comp) in self.c.iter_mut().enumerate() {
+            let (a, b) = SYM_PAIRS[c];
+            for axis in 0..3 {
+                let odd = (a == axis) != (b == axis);
+                let sign = if odd { -T::one() } else { T::one() };
+                let sides = side_pair(grid, axis, |_| Side::Cell {
+                    sign,
+                    offset: T::zero(),
+                });
+                fill_axis(&mut comp.data, grid, axis, sides);
+            }
+        }
+    }
+}
+
+fn side_pair<T: Real>(
+    grid: &Grid<T>,
+    axis: usize,
+    wall: impl Fn(Boundary<T>) -> Side<T>,
+) -> [Side<T>; 2] {
+    let bc = grid.bc(axis);
+    std::array::from_fn(|s| {
+        if bc[s].is_periodic() {
+            Side::Periodic
+        } else {
+            wall(bc[s])
+        }
+    })
+}
+
+/// Fills the ghosts of `data` along `axis`, on every line of the padded array (so that edges and
+/// corners come out right when the axes are filled one after the other).
+fn fill_axis<T: Real>(data: &mut [T], grid: &Grid<T>, axis: usize, sides: [Side<T>; 2]) {
+    let dims = grid.dims();
+    let st = grid.strides();
+    let n = grid.n()[axis] as isize;
+    let g = GHOST as isize;
+    let (a1, a2) = match axis {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    let s = st[axis] as isize;
+    for q2 in 0..dims[a2] {
+        for q1 in 0..dims[a1] {
+            let base = (q1 * st[a1] + q2 * st[a2]) as isize + g * s;
+            let at = |m: isize| (base + m * s) as usize;
+            // Lower side.
+            match sides[0] {
+                Side::Periodic => {
+                    for m in -g..0 {
+                        data[at(m)] = data[at(m.rem_euclid(n))];
+                    }
+                }
+                Side::Cell { sign, offset } => {
+                    for m in 1..=g {
+                        data[at(-m)] = offset + sign * data[at(m - 1)];
+                    }
+                }
+                Side::Face { value } => {
+                    data[at(0)] = value;
+                    for m in 1..=g {
+                        data[at(-m)] = value + value - data[at(m)];
+                    }
+                }
+            }
+            // Upper side.
+            match sides[1] {
+                Side::Periodic => {
+                    for m in n..n + g {
+                        data[at(m)] = data[at(m.rem_euclid(n))];
+                    }
+                }
+                Side::Cell { sign, offset } => {
+                    for m in 0..g {
+                        data[at(n + m)] = offset + sign * data[at(n - 1 - m)];
+                    }
+                }
+                Side::Face { value } => {
+                    data[at(n)] = value;
+                    for m in 1..g {
+                        data[at(n + m)] = value + value - data[at(n - m)];
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn channel() -> Grid<f64> {
+        let mut bc = [[Boundary::Periodic; 2]; 3];
+        bc[1] = [
+            Boundary::wall(),
+            Boundary::Wall {
+                velocity: [2.0, 0.0, 0.0],
+            },
+        ];
+        Grid::new([8, 6, 4], [0.0; 3], [1.0; 3], bc).unwrap()
+    }
+
+    #[test]
+    fn periodic_ghosts_copy_interior() {
+        let g = Grid::<f64>::periodic([5, 4, 1], [0.0; 3], [1.0; 3]).unwrap();
+        let mut f = Field::from_cell_fn(&g, |x| x[0] + 10.0 * x[1]);
+        f.fill_ghosts(&g);
+        for k in -3..4 {
+            for j in -3..7 {
+                for i in -3..8 {
+                    let (ii, jj) = (i.rem_euclid(5), j.rem_euclid(4));
+                    assert_eq!(f.at(&g, i, j, k), f.at(&g, ii, jj, 0));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn wall_ghosts_give_no_slip_and_zero_gradient() {
+        let g = channel();
+        let mut v = VectorField::from_fn(&g, |x| [x[1], x[0], x[2]]);
+        v.fill_ghosts(&g);
+        // Tangential u: the average across the wall equals the wall velocity.
+        for i in 0..8 {
+            let lo = 0.5 * (v.c[0].at(&g, i, -1, 1) + v.c[0].at(&g, i, 0, 1));
+            let hi = 0.5 * (v.c[0].at(&g, i, 5, 1) + v.c[0].at(&g, i, 6, 1));
+            assert!(lo.abs() < 1e-14 && (hi - 2.0).abs() < 1e-14);
+        }
+        // Normal v: zero on both wall faces.
+        assert_eq!(v.c[1].at(&g, 3, 0, 1), 0.0);
+        assert_eq!(v.c[1].at(&g, 3, 6, 1), 0.0);
+        let mut p = Field::from_cell_fn(&g, |x| x[1]);
+        p.fill_ghosts(&g);
+        assert_eq!(p.at(&g, 2, -1, 0), p.at(&g, 2, 0, 0));
+        assert_eq!(p.at(&g, 2, 6, 0), p.at(&g, 2, 5, 0));
+    }
+}
