@@ -317,8 +317,8 @@ mod tests {
         let mut f = Field::from_cell_fn(&g, |x| x[0] + 10.0 * x[1]);
         f.fill_ghosts(&g);
         for k in -3..4 {
-            for j in -3..7 {
-                for i in -3..8 {
+            for j in -3isize..7 {
+                for i in -3isize..8 {
                     let (ii, jj) = (i.rem_euclid(5), j.rem_euclid(4));
                     assert_eq!(f.at(&g, i, j, k), f.at(&g, ii, jj, 0));
                 }
