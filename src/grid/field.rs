@@ -144,7 +144,18 @@ impl<T: Real> VectorField<T> {
     /// to zero on the wall face and reflected antisymmetrically, and each tangential component
     /// is reflected about the wall velocity (`ghost = 2 U_wall - mirror`, no slip).
     pub fn fill_ghosts(&mut self, grid: &Grid<T>) {
-        let two = T::lit(2.0);
+        self.fill_velocity_ghosts(grid, T::one());
+    }
+
+    /// Fills ghost layers as a velocity with walls at rest, whatever their velocity: the
+    /// homogeneous closure used inside linear solvers (the wall motion enters their right-hand
+    /// side instead).
+    pub fn fill_ghosts_homogeneous(&mut self, grid: &Grid<T>) {
+        self.fill_velocity_ghosts(grid, T::zero());
+    }
+
+    fn fill_velocity_ghosts(&mut self, grid: &Grid<T>, wall_scale: T) {
+        let two = T::lit(2.0) * wall_scale;
         for (d, comp) in self.c.iter_mut().enumerate() {
             for axis in 0..3 {
                 let sides = side_pair(grid, axis, |b: Boundary<T>| {
