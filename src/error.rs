@@ -55,43 +55,24 @@ pub enum Error {
 impl Error {
     /// Shorthand for [`Error::InvalidParameter`].
     pub fn invalid(name: &'static str, value: impl fmt::Display, allowed: &'static str) -> Self {
-        Error::InvalidParameter {
-            name,
-            value: value.to_string(),
-            allowed,
-        }
+        Error::InvalidParameter { name, value: value.to_string(), allowed }
     }
 }
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::InvalidParameter {
-                name,
-                value,
-                allowed,
-            } => {
-                write!(
-                    f,
-                    "invalid parameter `{name}` = {value}: allowed is {allowed}"
-                )
+            Error::InvalidParameter { name, value, allowed } => {
+                write!(f, "invalid parameter `{name}` = {value}: allowed is {allowed}")
             }
             Error::Unsupported { component, detail } => write!(f, "{component}: {detail}"),
-            Error::NoConvergence {
-                solver,
-                iterations,
-                residual,
-                tolerance,
-            } => write!(
+            Error::NoConvergence { solver, iterations, residual, tolerance } => write!(
                 f,
                 "{solver} did not converge: residual {residual:.3e} after {iterations} iterations \
                  (tolerance {tolerance:.1e}); reduce dt or raise the iteration limit"
             ),
             Error::NonFinite { field, cell } => {
-                write!(
-                    f,
-                    "non-finite value in field `{field}` at cell {cell:?}; reduce dt"
-                )
+                write!(f, "non-finite value in field `{field}` at cell {cell:?}; reduce dt")
             }
             Error::Io { path, message } => write!(f, "I/O error on `{path}`: {message}"),
         }
@@ -104,21 +85,11 @@ impl std::error::Error for Error {}
 pub type Result<T> = std::result::Result<T, Error>;
 
 /// Returns `Ok(x)` if `x` is finite and strictly positive, else an [`Error::InvalidParameter`].
-#[allow(dead_code)] // used by the solver and scene modules as they land
 pub(crate) fn positive<T: crate::Real>(name: &'static str, x: T) -> Result<T> {
-    if x.is_finite() && x > T::zero() {
-        Ok(x)
-    } else {
-        Err(Error::invalid(name, x, "a finite number > 0"))
-    }
+    if x.is_finite() && x > T::zero() { Ok(x) } else { Err(Error::invalid(name, x, "a finite number > 0")) }
 }
 
 /// Returns `Ok(x)` if `x` is finite, else an [`Error::InvalidParameter`].
-#[allow(dead_code)] // used by the solver and scene modules as they land
 pub(crate) fn finite<T: crate::Real>(name: &'static str, x: T) -> Result<T> {
-    if x.is_finite() {
-        Ok(x)
-    } else {
-        Err(Error::invalid(name, x, "a finite number"))
-    }
+    if x.is_finite() { Ok(x) } else { Err(Error::invalid(name, x, "a finite number")) }
 }

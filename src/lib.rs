@@ -14,6 +14,8 @@
 //! - [`fluid`]: Poisson/Helmholtz solvers, Krylov and SOR, the projection stepper;
 //! - [`diagnostics`] and [`io`]: measurements, plots, ParaView output.
 #![warn(missing_docs)]
+// Stencil code indexes several arrays by the same axis number `d`; a range loop says that best.
+#![allow(clippy::needless_range_loop)]
 
 pub mod diagnostics;
 pub mod error;

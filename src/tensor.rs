@@ -40,25 +40,14 @@ pub const fn sym_index(i: usize, j: usize) -> usize {
 /// Expands a symmetric tensor to a full 3x3 matrix.
 #[inline]
 pub fn sym_to_mat<T: Real>(a: &Sym<T>) -> Mat3<T> {
-    [
-        [a[XX], a[XY], a[ZX]],
-        [a[XY], a[YY], a[YZ]],
-        [a[ZX], a[YZ], a[ZZ]],
-    ]
+    [[a[XX], a[XY], a[ZX]], [a[XY], a[YY], a[YZ]], [a[ZX], a[YZ], a[ZZ]]]
 }
 
 /// Symmetric part of a full matrix, as a [`Sym`].
 #[inline]
 pub fn mat_to_sym<T: Real>(m: &Mat3<T>) -> Sym<T> {
     let h = T::lit(0.5);
-    [
-        m[0][0],
-        m[1][1],
-        m[2][2],
-        h * (m[0][1] + m[1][0]),
-        h * (m[1][2] + m[2][1]),
-        h * (m[2][0] + m[0][2]),
-    ]
+    [m[0][0], m[1][1], m[2][2], h * (m[0][1] + m[1][0]), h * (m[1][2] + m[2][1]), h * (m[2][0] + m[0][2])]
 }
 
 /// The identity as a [`Sym`].
@@ -72,14 +61,7 @@ pub fn identity<T: Real>() -> Sym<T> {
 #[inline]
 pub fn projector<T: Real>(n: &Vec3<T>) -> Sym<T> {
     let o = T::one();
-    [
-        o - n[0] * n[0],
-        o - n[1] * n[1],
-        o - n[2] * n[2],
-        -n[0] * n[1],
-        -n[1] * n[2],
-        -n[2] * n[0],
-    ]
+    [o - n[0] * n[0], o - n[1] * n[1], o - n[2] * n[2], -n[0] * n[1], -n[1] * n[2], -n[2] * n[0]]
 }
 
 /// Trace of a symmetric tensor.
@@ -92,10 +74,7 @@ pub fn trace<T: Real>(a: &Sym<T>) -> T {
 #[inline]
 pub fn ddot<T: Real>(a: &Sym<T>, b: &Sym<T>) -> T {
     let two = T::lit(2.0);
-    a[XX] * b[XX]
-        + a[YY] * b[YY]
-        + a[ZZ] * b[ZZ]
-        + two * (a[XY] * b[XY] + a[YZ] * b[YZ] + a[ZX] * b[ZX])
+    a[XX] * b[XX] + a[YY] * b[YY] + a[ZZ] * b[ZZ] + two * (a[XY] * b[XY] + a[YZ] * b[YZ] + a[ZX] * b[ZX])
 }
 
 /// Product `A B` of two full matrices.

@@ -11,6 +11,7 @@
 //! Used as the pressure solver of (2.36) when the density is uniform, as the preconditioner of
 //! the variable-density PCG, and as the preconditioner of the momentum predictor (2.35).
 
+use crate::grid::ops::min_rows;
 use crate::grid::{GHOST, Grid};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
@@ -138,7 +139,7 @@ impl<T: Real> SpectralSolver<T> {
     pub fn solve(&mut self, grid: &Grid<T>, sigma: T, c: T, b: &[T], x: &mut [T]) {
         let [nx, ny, nz] = self.n;
         // Gather interior values, x fastest.
-        self.a.par_chunks_mut(nx).enumerate().for_each(|(line, row)| {
+        self.a.par_chunks_mut(nx).with_min_len(min_rows(nx)).enumerate().for_each(|(line, row)| {
             let base = grid.idx_u(0, line % ny, line / ny);
             for (r, &bi) in row.iter_mut().zip(&b[base..base + nx]) {
                 *r = Complex::new(bi, T::zero());
@@ -152,7 +153,7 @@ impl<T: Real> SpectralSolver<T> {
             Some(w) => self.thomas(w, sigma, c),
             None => {
                 let lam = &self.lambda;
-                self.a.par_chunks_mut(nx).enumerate().for_each(|(line, row)| {
+                self.a.par_chunks_mut(nx).with_min_len(min_rows(nx)).enumerate().for_each(|(line, row)| {
                     let (j, k) = (line % ny, line / ny);
                     let base = lam[1][j] + lam[2][k];
                     for (i, r) in row.iter_mut().enumerate() {
@@ -169,14 +170,16 @@ impl<T: Real> SpectralSolver<T> {
             / periodic.iter().map(|&a| T::from_usize(self.n[a]).unwrap()).fold(T::one(), |p, q| p * q);
         let a = &self.a;
         let g = GHOST;
-        x.par_chunks_mut(grid.dims()[0]).enumerate().for_each(|(row, xs)| {
-            if let Some((j, k)) = grid.row_jk(row) {
-                let line = &a[(j + ny * k) * nx..(j + ny * k + 1) * nx];
-                for (xi, r) in xs[g..g + nx].iter_mut().zip(line) {
-                    *xi = r.re * scale;
+        x.par_chunks_mut(grid.dims()[0]).with_min_len(min_rows(grid.dims()[0])).enumerate().for_each(
+            |(row, xs)| {
+                if let Some((j, k)) = grid.row_jk(row) {
+                    let line = &a[(j + ny * k) * nx..(j + ny * k + 1) * nx];
+                    for (xi, r) in xs[g..g + nx].iter_mut().zip(line) {
+                        *xi = r.re * scale;
+                    }
                 }
-            }
-        });
+            },
+        );
         let _ = nz;
     }
 
@@ -266,7 +269,7 @@ fn solve_line<T: Real>(x: &mut [Complex<T>], cp: &mut [T], shift: T, e: T, kind:
     } else {
         let d0 = diag(0);
         cp[0] = -e / d0;
-        x[0] = x[0] / d0;
+        x[0] /= d0;
     }
     for i in 1..n {
         let m = diag(i) + e * cp[i - 1];
@@ -275,7 +278,7 @@ fn solve_line<T: Real>(x: &mut [Complex<T>], cp: &mut [T], shift: T, e: T, kind:
     }
     for i in (0..n - 1).rev() {
         let next = x[i + 1];
-        x[i] = x[i] - next * cp[i];
+        x[i] -= next * cp[i];
     }
 }
 
@@ -285,7 +288,7 @@ fn to_lines<T: Real>(src: &[Complex<T>], dst: &mut [Complex<T>], n: [usize; 3], 
     let (o1, o2) = others(axis);
     let st = [1, n[0], n[0] * n[1]];
     let (s_o1, s_o2) = (st[o1], st[o2]);
-    dst.par_chunks_mut(len).enumerate().for_each(|(l, line)| {
+    dst.par_chunks_mut(len).with_min_len(min_rows(len)).enumerate().for_each(|(l, line)| {
         let base = (l % n[o1]) * s_o1 + (l / n[o1]) * s_o2;
         for (m, d) in line.iter_mut().enumerate() {
             *d = src[base + m * st[axis]];
@@ -296,7 +299,7 @@ fn to_lines<T: Real>(src: &[Complex<T>], dst: &mut [Complex<T>], n: [usize; 3], 
 /// Inverse of [`to_lines`].
 fn from_lines<T: Real>(src: &[Complex<T>], dst: &mut [Complex<T>], n: [usize; 3], axis: usize) {
     let len = n[axis];
-    dst.par_chunks_mut(n[0] * n[1]).enumerate().for_each(|(k, plane)| {
+    dst.par_chunks_mut(n[0] * n[1]).with_min_len(min_rows(n[0] * n[1])).enumerate().for_each(|(k, plane)| {
         for j in 0..n[1] {
             for i in 0..n[0] {
                 let (l, m) = match axis {

@@ -18,9 +18,7 @@ pub enum Boundary<T> {
 impl<T: Real> Boundary<T> {
     /// A wall at rest.
     pub fn wall() -> Self {
-        Boundary::Wall {
-            velocity: [T::zero(); 3],
-        }
+        Boundary::Wall { velocity: [T::zero(); 3] }
     }
 
     /// Whether this side is periodic.

@@ -34,9 +34,7 @@ enum Side<T> {
 impl<T: Real> Field<T> {
     /// A field of zeros on `grid`.
     pub fn zeros(grid: &Grid<T>) -> Self {
-        Field {
-            data: vec![T::zero(); grid.len()],
-        }
+        Field { data: vec![T::zero(); grid.len()] }
     }
 
     /// A cell-centred field sampled at cell centres (interior and ghosts) from `f(x)`.
@@ -73,10 +71,7 @@ impl<T: Real> Field<T> {
     /// Fills the ghost layers of a cell-centred scalar: periodic copies, or a zero normal
     /// gradient (even reflection) at walls.
     pub fn fill_ghosts(&mut self, grid: &Grid<T>) {
-        let even = Side::Cell {
-            sign: T::one(),
-            offset: T::zero(),
-        };
+        let even = Side::Cell { sign: T::one(), offset: T::zero() };
         for axis in 0..3 {
             let sides = side_pair(grid, axis, |_| even);
             fill_axis(&mut self.data, grid, axis, sides);
@@ -94,9 +89,7 @@ impl<T: Real> Field<T> {
 
     /// The first interior cell holding a NaN or infinity, if any.
     pub fn first_non_finite(&self, grid: &Grid<T>) -> Option<[usize; 3]> {
-        grid.cells()
-            .find(|&(i, j, k)| !self.data[grid.idx_u(i, j, k)].is_finite())
-            .map(|(i, j, k)| [i, j, k])
+        grid.cells().find(|&(i, j, k)| !self.data[grid.idx_u(i, j, k)].is_finite()).map(|(i, j, k)| [i, j, k])
     }
 }
 
@@ -111,9 +104,7 @@ pub struct VectorField<T> {
 impl<T: Real> VectorField<T> {
     /// Zero vector field.
     pub fn zeros(grid: &Grid<T>) -> Self {
-        VectorField {
-            c: std::array::from_fn(|_| Field::zeros(grid)),
-        }
+        VectorField { c: std::array::from_fn(|_| Field::zeros(grid)) }
     }
 
     /// Samples `f(x)[d]` at the face positions of each component `d` (ghosts included).
@@ -162,10 +153,7 @@ impl<T: Real> VectorField<T> {
                     if axis == d {
                         Side::Face { value: T::zero() }
                     } else {
-                        Side::Cell {
-                            sign: -T::one(),
-                            offset: two * b.velocity()[d],
-                        }
+                        Side::Cell { sign: -T::one(), offset: two * b.velocity()[d] }
                     }
                 });
                 fill_axis(&mut comp.data, grid, axis, sides);
@@ -189,9 +177,7 @@ pub struct SymField<T> {
 impl<T: Real> SymField<T> {
     /// Zero tensor field.
     pub fn zeros(grid: &Grid<T>) -> Self {
-        SymField {
-            c: std::array::from_fn(|_| Field::zeros(grid)),
-        }
+        SymField { c: std::array::from_fn(|_| Field::zeros(grid)) }
     }
 
     /// The tensor at storage index `idx`.
@@ -223,29 +209,16 @@ impl<T: Real> SymField<T> {
             for axis in 0..3 {
                 let odd = (a == axis) != (b == axis);
                 let sign = if odd { -T::one() } else { T::one() };
-                let sides = side_pair(grid, axis, |_| Side::Cell {
-                    sign,
-                    offset: T::zero(),
-                });
+                let sides = side_pair(grid, axis, |_| Side::Cell { sign, offset: T::zero() });
                 fill_axis(&mut comp.data, grid, axis, sides);
             }
         }
     }
 }
 
-fn side_pair<T: Real>(
-    grid: &Grid<T>,
-    axis: usize,
-    wall: impl Fn(Boundary<T>) -> Side<T>,
-) -> [Side<T>; 2] {
+fn side_pair<T: Real>(grid: &Grid<T>, axis: usize, wall: impl Fn(Boundary<T>) -> Side<T>) -> [Side<T>; 2] {
     let bc = grid.bc(axis);
-    std::array::from_fn(|s| {
-        if bc[s].is_periodic() {
-            Side::Periodic
-        } else {
-            wall(bc[s])
-        }
-    })
+    std::array::from_fn(|s| if bc[s].is_periodic() { Side::Periodic } else { wall(bc[s]) })
 }
 
 /// Fills the ghosts of `data` along `axis`, on every line of the padded array (so that edges and
@@ -313,12 +286,7 @@ mod tests {
 
     fn channel() -> Grid<f64> {
         let mut bc = [[Boundary::Periodic; 2]; 3];
-        bc[1] = [
-            Boundary::wall(),
-            Boundary::Wall {
-                velocity: [2.0, 0.0, 0.0],
-            },
-        ];
+        bc[1] = [Boundary::wall(), Boundary::Wall { velocity: [2.0, 0.0, 0.0] }];
         Grid::new([8, 6, 4], [0.0; 3], [1.0; 3], bc).unwrap()
     }
 

@@ -39,12 +39,7 @@ impl<T: Real> Grid<T> {
     ///                          [[Boundary::Periodic; 2]; 3]).unwrap();
     /// assert_eq!(g.h()[0], 1.0 / 32.0);
     /// ```
-    pub fn new(
-        cells: [usize; 3],
-        lower: [T; 3],
-        upper: [T; 3],
-        bc: [[Boundary<T>; 2]; 3],
-    ) -> Result<Self> {
+    pub fn new(cells: [usize; 3], lower: [T; 3], upper: [T; 3], bc: [[Boundary<T>; 2]; 3]) -> Result<Self> {
         let mut h = [T::one(); 3];
         for d in 0..3 {
             let periodic = bc[d][0].is_periodic();
@@ -66,11 +61,7 @@ impl<T: Real> Grid<T> {
             let len = upper[d] - lower[d];
             if !(len.is_finite() && lower[d].is_finite() && len > T::zero()) {
                 return Err(Error::invalid(
-                    [
-                        "upper[0] - lower[0]",
-                        "upper[1] - lower[1]",
-                        "upper[2] - lower[2]",
-                    ][d],
+                    ["upper[0] - lower[0]", "upper[1] - lower[1]", "upper[2] - lower[2]"][d],
                     len,
                     "a finite length > 0",
                 ));
@@ -87,19 +78,8 @@ impl<T: Real> Grid<T> {
                 }
             }
         }
-        let dims = [
-            cells[0] + 2 * GHOST,
-            cells[1] + 2 * GHOST,
-            cells[2] + 2 * GHOST,
-        ];
-        Ok(Grid {
-            n: cells,
-            lower,
-            upper,
-            h,
-            bc,
-            dims,
-        })
+        let dims = [cells[0] + 2 * GHOST, cells[1] + 2 * GHOST, cells[2] + 2 * GHOST];
+        Ok(Grid { n: cells, lower, upper, h, bc, dims })
     }
 
     /// A fully periodic grid over `[lower, upper]`.
@@ -188,9 +168,7 @@ impl<T: Real> Grid<T> {
     pub fn cell_center(&self, i: isize, j: isize, k: isize) -> [T; 3] {
         let half = T::lit(0.5);
         let c = [i, j, k];
-        std::array::from_fn(|d| {
-            self.lower[d] + (T::from_isize(c[d]).unwrap_or(T::zero()) + half) * self.h[d]
-        })
+        std::array::from_fn(|d| self.lower[d] + (T::from_isize(c[d]).unwrap_or(T::zero()) + half) * self.h[d])
     }
     /// Position of the velocity unknown of component `axis` with index `(i, j, k)` (the centre
     /// of the lower face of cell `(i, j, k)` normal to `axis`).
@@ -217,11 +195,7 @@ impl<T: Real> Grid<T> {
         let j = row % self.dims[1];
         let k = row / self.dims[1];
         let g = GHOST;
-        if j >= g && j < g + self.n[1] && k >= g && k < g + self.n[2] {
-            Some((j - g, k - g))
-        } else {
-            None
-        }
+        if j >= g && j < g + self.n[1] && k >= g && k < g + self.n[2] { Some((j - g, k - g)) } else { None }
     }
 }
 
@@ -238,12 +212,7 @@ mod tests {
         let mut w = p;
         w[1] = [Boundary::Periodic, Boundary::wall()];
         assert!(Grid::new([8, 8, 8], [0.0; 3], [1.0; 3], w).is_err());
-        w[1] = [
-            Boundary::wall(),
-            Boundary::Wall {
-                velocity: [0.0, 1.0, 0.0],
-            },
-        ];
+        w[1] = [Boundary::wall(), Boundary::Wall { velocity: [0.0, 1.0, 0.0] }];
         let e = Grid::new([8, 8, 8], [0.0; 3], [1.0; 3], w).unwrap_err();
         assert!(e.to_string().contains("normal"));
         w[1] = [Boundary::wall(); 2];
@@ -261,9 +230,7 @@ mod tests {
         assert_eq!(g.idx(6, 7, 8), g.len() - 1);
         let c = g.cell_center(0, 0, 0);
         assert!((c[0] - 0.125).abs() < 1e-15);
-        let rows = (0..g.dims()[1] * g.dims()[2])
-            .filter(|&r| g.row_jk(r).is_some())
-            .count();
+        let rows = (0..g.dims()[1] * g.dims()[2]).filter(|&r| g.row_jk(r).is_some()).count();
         assert_eq!(rows, 5 * 6);
     }
 }

@@ -11,6 +11,13 @@ use crate::Real;
 use crate::tensor::Mat3;
 use rayon::prelude::*;
 
+/// Rows of `dx` values per rayon task, so that a task holds at least a few thousand values (small
+/// grids then run on one thread instead of paying for synchronisation).
+#[inline]
+pub fn min_rows(dx: usize) -> usize {
+    (8192 / dx.max(1)).max(1)
+}
+
 /// Sets `out[idx] = f(idx, i, j, k)` for every interior cell, in parallel over x-lines.
 /// Ghost values of `out` are left untouched.
 pub fn par_interior<T: Real>(
@@ -21,11 +28,30 @@ pub fn par_interior<T: Real>(
     let nx = grid.n()[0];
     let dx = grid.dims()[0];
     let g = super::GHOST;
-    out.par_chunks_mut(dx).enumerate().for_each(|(row, line)| {
+    out.par_chunks_mut(dx).with_min_len(min_rows(dx)).enumerate().for_each(|(row, line)| {
         if let Some((j, k)) = grid.row_jk(row) {
             let base = row * dx;
             for i in 0..nx {
                 line[g + i] = f(base + g + i, i, j, k);
+            }
+        }
+    });
+}
+
+/// Replaces `out[idx]` by `f(idx, i, j, k, out[idx])` for every interior cell, in parallel.
+pub fn par_interior_update<T: Real>(
+    grid: &Grid<T>,
+    out: &mut [T],
+    f: impl Fn(usize, usize, usize, usize, T) -> T + Sync,
+) {
+    let nx = grid.n()[0];
+    let dx = grid.dims()[0];
+    let g = super::GHOST;
+    out.par_chunks_mut(dx).with_min_len(min_rows(dx)).enumerate().for_each(|(row, line)| {
+        if let Some((j, k)) = grid.row_jk(row) {
+            let base = row * dx;
+            for i in 0..nx {
+                line[g + i] = f(base + g + i, i, j, k, line[g + i]);
             }
         }
     });
@@ -46,9 +72,7 @@ pub fn divergence_at_cell<T: Real>(grid: &Grid<T>, v: &VectorField<T>, idx: usiz
 
 /// Divergence of `v` at every interior cell into `out`.
 pub fn divergence<T: Real>(grid: &Grid<T>, v: &VectorField<T>, out: &mut Field<T>) {
-    par_interior(grid, &mut out.data, |idx, _, _, _| {
-        divergence_at_cell(grid, v, idx)
-    });
+    par_interior(grid, &mut out.data, |idx, _, _, _| divergence_at_cell(grid, v, idx));
 }
 
 /// Gradient of a cell-centred scalar on the lower face of cell `idx` normal to `axis`.
@@ -64,11 +88,7 @@ pub fn gradient<T: Real>(grid: &Grid<T>, p: &Field<T>, out: &mut VectorField<T>)
     for d in 0..3 {
         let wall = !grid.is_periodic(d);
         par_interior(grid, &mut out.c[d].data, |idx, i, j, k| {
-            if wall && [i, j, k][d] == 0 {
-                T::zero()
-            } else {
-                gradient_at_face(grid, p, d, idx)
-            }
+            if wall && [i, j, k][d] == 0 { T::zero() } else { gradient_at_face(grid, p, d, idx) }
         });
     }
 }
@@ -168,14 +188,7 @@ mod tests {
     #[test]
     fn velocity_gradient_of_a_linear_field_is_exact() {
         let mut bc = [[Boundary::Periodic; 2]; 3];
-        bc[2] = [
-            Boundary::Wall {
-                velocity: [-1.0, 0.0, 0.0],
-            },
-            Boundary::Wall {
-                velocity: [1.0, 0.0, 0.0],
-            },
-        ];
+        bc[2] = [Boundary::Wall { velocity: [-1.0, 0.0, 0.0] }, Boundary::Wall { velocity: [1.0, 0.0, 0.0] }];
         let g = Grid::<f64>::new([6, 6, 8], [0.0, 0.0, -1.0], [1.0, 1.0, 1.0], bc).unwrap();
         let mut v = VectorField::from_fn(&g, |x| [x[2], 0.0, 0.0]);
         v.fill_ghosts(&g);

@@ -1,0 +1,83 @@
+//! Shared helpers of the example drivers: flags, output folder, the RESULT line.
+#![allow(dead_code)]
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+/// Command-line flags `--key value` and bare `--flag`.
+pub struct Args {
+    map: HashMap<String, String>,
+}
+
+impl Args {
+    /// Parses `std::env::args()`.
+    pub fn parse() -> Self {
+        let mut map = HashMap::new();
+        let args: Vec<String> = std::env::args().skip(1).collect();
+        let mut i = 0;
+        while i < args.len() {
+            if let Some(key) = args[i].strip_prefix("--") {
+                let has_value = i + 1 < args.len() && !args[i + 1].starts_with("--");
+                let value = if has_value { args[i + 1].clone() } else { String::new() };
+                map.insert(key.to_string(), value);
+                i += if has_value { 2 } else { 1 };
+            } else {
+                eprintln!("ignoring argument `{}`", args[i]);
+                i += 1;
+            }
+        }
+        Args { map }
+    }
+
+    /// A flag's value parsed as `T`, or `default`; exits with a message on a bad value.
+    pub fn get<T: std::str::FromStr>(&self, key: &str, default: T) -> T {
+        match self.map.get(key) {
+            None => default,
+            Some(v) => v.parse().unwrap_or_else(|_| {
+                eprintln!("error: --{key} {v}: not a valid value");
+                std::process::exit(2)
+            }),
+        }
+    }
+
+    /// A flag's value if given.
+    pub fn opt<T: std::str::FromStr>(&self, key: &str) -> Option<T> {
+        self.map.get(key).map(|v| {
+            v.parse().unwrap_or_else(|_| {
+                eprintln!("error: --{key} {v}: not a valid value");
+                std::process::exit(2)
+            })
+        })
+    }
+
+    /// Whether a bare flag is present.
+    pub fn flag(&self, key: &str) -> bool {
+        self.map.contains_key(key)
+    }
+
+    /// The output folder (`--out`, default `out/<name>`), created.
+    pub fn out_dir(&self, name: &str) -> PathBuf {
+        let dir = PathBuf::from(self.map.get("out").cloned().unwrap_or_else(|| format!("out/{name}")));
+        if let Err(e) = std::fs::create_dir_all(&dir) {
+            eprintln!("error: cannot create {}: {e}", dir.display());
+            std::process::exit(1);
+        }
+        dir
+    }
+}
+
+/// Observed order of convergence between two errors at resolutions `n1 < n2`.
+pub fn order(e1: f64, e2: f64, n1: f64, n2: f64) -> f64 {
+    (e1 / e2).ln() / (n2 / n1).ln()
+}
+
+/// Prints the machine-readable RESULT line.
+pub fn result(pairs: &[(&str, String)]) {
+    let body: Vec<String> = pairs.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    println!("RESULT {}", body.join(" "));
+}
+
+/// Formats a number for a RESULT line.
+pub fn num(x: f64) -> String {
+    format!("{x:.4e}")
+}

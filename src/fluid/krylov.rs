@@ -1,0 +1,215 @@
+//! Matrix-free Krylov solvers: preconditioned conjugate gradients (symmetric positive definite
+//! operators, the variable-density pressure equation) and right-preconditioned BiCGStab (the
+//! momentum predictor (2.35), non-symmetric once the membrane term H enters).
+//!
+//! Operators and preconditioners are narrow traits ([`LinOp`], [`Precond`]); the workspace is
+//! allocated once ([`KrylovWorkspace`]) and the iteration allocates nothing. Each solve returns
+//! [`KrylovInfo`] or [`Error::NoConvergence`].
+
+use super::linalg::InteriorVector;
+use crate::grid::Grid;
+use crate::{Error, Real, Result};
+
+/// A linear operator `y = A x` on interior values. `apply` may fill the ghost layers of `x`
+/// (the boundary closure of the operator) before reading them.
+pub trait LinOp<T: Real, V> {
+    /// Writes `A x` into the interior of `y`.
+    fn apply(&self, x: &mut V, y: &mut V);
+}
+
+/// A preconditioner `z = M^-1 r`.
+pub trait Precond<T: Real, V> {
+    /// Writes `M^-1 r` into the interior of `z`.
+    fn apply(&mut self, r: &V, z: &mut V);
+}
+
+/// The identity preconditioner.
+pub struct Identity;
+
+impl<T: Real, V: InteriorVector<T>> Precond<T, V> for Identity {
+    fn apply(&mut self, r: &V, z: &mut V) {
+        z.assign(r);
+    }
+}
+
+/// Stopping rule of a Krylov solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KrylovParams {
+    /// Relative residual `|b - A x| / |b|` to reach.
+    pub tolerance: f64,
+    /// Iteration limit; reaching it is an error.
+    pub max_iterations: usize,
+}
+
+impl Default for KrylovParams {
+    /// `tolerance = 1e-8`, `max_iterations = 500`.
+    fn default() -> Self {
+        KrylovParams { tolerance: 1e-8, max_iterations: 500 }
+    }
+}
+
+/// What a converged solve reports.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct KrylovInfo {
+    /// Iterations performed (operator applications: 1 per CG and 2 per BiCGStab iteration).
+    pub iterations: usize,
+    /// Final relative residual.
+    pub residual: f64,
+}
+
+/// Work vectors of the Krylov solvers, allocated once.
+pub struct KrylovWorkspace<V> {
+    r: V,
+    rhat: V,
+    p: V,
+    v: V,
+    s: V,
+    t: V,
+    phat: V,
+    shat: V,
+}
+
+impl<V> KrylovWorkspace<V> {
+    /// A workspace for vectors like those of `grid`.
+    pub fn new<T: Real>(grid: &Grid<T>) -> Self
+    where
+        V: InteriorVector<T>,
+    {
+        KrylovWorkspace {
+            r: V::zeros_like(grid),
+            rhat: V::zeros_like(grid),
+            p: V::zeros_like(grid),
+            v: V::zeros_like(grid),
+            s: V::zeros_like(grid),
+            t: V::zeros_like(grid),
+            phat: V::zeros_like(grid),
+            shat: V::zeros_like(grid),
+        }
+    }
+}
+
+fn no_convergence(solver: &'static str, it: usize, res: f64, tol: f64) -> Error {
+    Error::NoConvergence { solver, iterations: it, residual: res, tolerance: tol }
+}
+
+/// Solves `A x = b` by right-preconditioned BiCGStab, starting from the given `x`.
+pub fn bicgstab<T: Real, V: InteriorVector<T>>(
+    grid: &Grid<T>,
+    op: &impl LinOp<T, V>,
+    pc: &mut impl Precond<T, V>,
+    b: &V,
+    x: &mut V,
+    ws: &mut KrylovWorkspace<V>,
+    params: KrylovParams,
+) -> Result<KrylovInfo> {
+    let tol = T::lit(params.tolerance);
+    let bnorm = b.norm(grid);
+    if bnorm == T::zero() {
+        x.axpby(grid, T::zero(), b, T::zero());
+        return Ok(KrylovInfo::default());
+    }
+    let KrylovWorkspace { r, rhat, p, v, s, t, phat, shat } = ws;
+    // r = b - A x
+    op.apply(x, r);
+    r.axpby(grid, T::one(), b, -T::one());
+    let mut res = r.norm(grid) / bnorm;
+    if !res.is_finite() {
+        return Err(no_convergence("BiCGStab", 0, res.f64(), params.tolerance));
+    }
+    if res <= tol {
+        return Ok(KrylovInfo { iterations: 0, residual: res.f64() });
+    }
+    rhat.assign(r);
+    p.assign(r);
+    let mut rho = rhat.dot(grid, r);
+    for it in 1..=params.max_iterations {
+        pc.apply(p, phat);
+        op.apply(phat, v);
+        let rv = rhat.dot(grid, v);
+        if rv == T::zero() || !rv.is_finite() {
+            return Err(no_convergence("BiCGStab (breakdown)", it, res.f64(), params.tolerance));
+        }
+        let alpha = rho / rv;
+        s.assign(r);
+        s.axpby(grid, -alpha, v, T::one());
+        let snorm = s.norm(grid) / bnorm;
+        if snorm <= tol {
+            x.axpby(grid, alpha, phat, T::one());
+            return Ok(KrylovInfo { iterations: it, residual: snorm.f64() });
+        }
+        pc.apply(s, shat);
+        op.apply(shat, t);
+        let tt = t.dot(grid, t);
+        let omega = if tt > T::zero() { t.dot(grid, s) / tt } else { T::zero() };
+        x.axpby(grid, alpha, phat, T::one());
+        x.axpby(grid, omega, shat, T::one());
+        r.assign(s);
+        r.axpby(grid, -omega, t, T::one());
+        res = r.norm(grid) / bnorm;
+        if !res.is_finite() {
+            return Err(no_convergence("BiCGStab", it, res.f64(), params.tolerance));
+        }
+        if res <= tol {
+            return Ok(KrylovInfo { iterations: it, residual: res.f64() });
+        }
+        let rho_new = rhat.dot(grid, r);
+        if omega == T::zero() || rho == T::zero() {
+            return Err(no_convergence("BiCGStab (breakdown)", it, res.f64(), params.tolerance));
+        }
+        let beta = (rho_new / rho) * (alpha / omega);
+        rho = rho_new;
+        // p = r + beta (p - omega v)
+        p.axpby(grid, -omega * beta, v, beta);
+        p.axpby(grid, T::one(), r, T::one());
+    }
+    Err(no_convergence("BiCGStab", params.max_iterations, res.f64(), params.tolerance))
+}
+
+/// Solves `A x = b` for symmetric positive (semi-)definite `A` by preconditioned conjugate
+/// gradients, starting from the given `x`.
+pub fn pcg<T: Real, V: InteriorVector<T>>(
+    grid: &Grid<T>,
+    op: &impl LinOp<T, V>,
+    pc: &mut impl Precond<T, V>,
+    b: &V,
+    x: &mut V,
+    ws: &mut KrylovWorkspace<V>,
+    params: KrylovParams,
+) -> Result<KrylovInfo> {
+    let tol = T::lit(params.tolerance);
+    let bnorm = b.norm(grid);
+    if bnorm == T::zero() {
+        x.axpby(grid, T::zero(), b, T::zero());
+        return Ok(KrylovInfo::default());
+    }
+    let KrylovWorkspace { r, p, v: ap, shat: z, .. } = ws;
+    op.apply(x, r);
+    r.axpby(grid, T::one(), b, -T::one());
+    let mut res = r.norm(grid) / bnorm;
+    if res <= tol {
+        return Ok(KrylovInfo { iterations: 0, residual: res.f64() });
+    }
+    pc.apply(r, z);
+    p.assign(z);
+    let mut rz = r.dot(grid, z);
+    for it in 1..=params.max_iterations {
+        op.apply(p, ap);
+        let pap = p.dot(grid, ap);
+        if pap <= T::zero() || !pap.is_finite() {
+            return Err(no_convergence("PCG (breakdown)", it, res.f64(), params.tolerance));
+        }
+        let alpha = rz / pap;
+        x.axpby(grid, alpha, p, T::one());
+        r.axpby(grid, -alpha, ap, T::one());
+        res = r.norm(grid) / bnorm;
+        if res <= tol {
+            return Ok(KrylovInfo { iterations: it, residual: res.f64() });
+        }
+        pc.apply(r, z);
+        let rz_new = r.dot(grid, z);
+        let beta = rz_new / rz;
+        rz = rz_new;
+        p.axpby(grid, T::one(), z, beta);
+    }
+    Err(no_convergence("PCG", params.max_iterations, res.f64(), params.tolerance))
+}

@@ -1,0 +1,328 @@
+//! The momentum equation on the staggered grid: material coefficients, the viscous stress
+//! divergence, the advection term, and the matrix-free predictor operator of (2.35).
+//!
+//! # Operators (component `c` at its face, `idx` the storage index of that face)
+//! - viscous: `V(w)_c = div(mu (grad w + grad w^T))_c`, normal stresses at cell centres with the
+//!   cell viscosity, shear stresses on cell edges with the average of the four neighbouring cell
+//!   viscosities ((2.25) mixture values arrive from the caller);
+//! - advection in the divergence form of the second-order staggered scheme, which conserves
+//!   kinetic energy for a discretely divergence-free velocity (Morinishi et al. 1998):
+//!   `A(v)_c = sum_a d_a( avg_c(v_a) avg_a(v_c) )`;
+//! - predictor (2.35): `P x = (rho/dt) x - (1/2) V(x) + [extra implicit terms, e.g. the membrane
+//!   term -(dt/4) div(delta H(x, G_s, J))]`, with `rho` averaged to the face. The rows of
+//!   normal-velocity unknowns on a wall are the identity scaled by `rho/dt` (their value stays
+//!   zero).
+
+use super::spectral::{Location, SpectralSolver};
+use super::{LinOp, Precond};
+use crate::grid::ops::par_interior;
+use crate::grid::{Field, Grid, VectorField};
+use crate::{Error, Real, Result};
+
+/// A material coefficient (density or viscosity): uniform, or one value per cell (for example
+/// the mixture (2.25) of the VOF function), with ghosts filled by the stepper.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Coefficient<T> {
+    /// The same value everywhere.
+    Uniform(T),
+    /// One value per cell centre.
+    Field(Field<T>),
+}
+
+impl<T: Real> Coefficient<T> {
+    /// Value at cell `idx`.
+    #[inline(always)]
+    pub fn at(&self, idx: usize) -> T {
+        match self {
+            Coefficient::Uniform(v) => *v,
+            Coefficient::Field(f) => f.data[idx],
+        }
+    }
+
+    /// Smallest and largest interior values.
+    pub fn range(&self, grid: &Grid<T>) -> (T, T) {
+        match self {
+            Coefficient::Uniform(v) => (*v, *v),
+            Coefficient::Field(f) => {
+                grid.cells().fold((T::infinity(), T::neg_infinity()), |(lo, hi), (i, j, k)| {
+                    let x = f.data[grid.idx_u(i, j, k)];
+                    (lo.min(x), hi.max(x))
+                })
+            }
+        }
+    }
+
+    /// Checks that every interior value is finite and positive.
+    pub fn validate(&self, grid: &Grid<T>, name: &'static str) -> Result<()> {
+        let (lo, hi) = self.range(grid);
+        if !(lo.is_finite() && hi.is_finite() && lo > T::zero()) {
+            return Err(Error::invalid(
+                name,
+                format!("range [{lo}, {hi}]"),
+                "finite values > 0 in every cell",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Fills ghost values (zero normal gradient at walls).
+    pub fn fill_ghosts(&mut self, grid: &Grid<T>) {
+        if let Coefficient::Field(f) = self {
+            f.fill_ghosts(grid);
+        }
+    }
+
+    /// Whether the coefficient is uniform.
+    pub fn is_uniform(&self) -> bool {
+        matches!(self, Coefficient::Uniform(_))
+    }
+}
+
+/// Density and viscosity of the fluid (mixture) at cell centres.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Materials<T> {
+    /// Density `rho`.
+    pub rho: Coefficient<T>,
+    /// Dynamic viscosity `mu`.
+    pub mu: Coefficient<T>,
+}
+
+impl<T: Real> Materials<T> {
+    /// Uniform density and viscosity. Errors: non-positive or non-finite values.
+    pub fn uniform(rho: T, mu: T) -> Result<Self> {
+        crate::error::positive("rho", rho)?;
+        crate::error::positive("mu", mu)?;
+        Ok(Materials { rho: Coefficient::Uniform(rho), mu: Coefficient::Uniform(mu) })
+    }
+}
+
+/// Viscosity as seen by the stencils: cell values plus edge averages when it varies.
+pub(crate) struct ViscosityView<'a, T> {
+    mu: &'a Coefficient<T>,
+    /// Edge viscosity, indexed by the axis the edge is parallel to (computed on the fly if
+    /// absent).
+    edge: Option<&'a [Field<T>; 3]>,
+    st: [usize; 3],
+}
+
+impl<'a, T: Real> ViscosityView<'a, T> {
+    pub(crate) fn new(grid: &Grid<T>, mu: &'a Coefficient<T>, edge: Option<&'a [Field<T>; 3]>) -> Self {
+        ViscosityView { mu, edge, st: grid.strides() }
+    }
+
+    #[inline(always)]
+    fn cell(&self, idx: usize) -> T {
+        self.mu.at(idx)
+    }
+
+    /// Viscosity on the edge at the lower corner of cell `idx` in the plane of axes `a`, `b`.
+    #[inline(always)]
+    fn edge(&self, a: usize, b: usize, idx: usize) -> T {
+        match (self.mu, self.edge) {
+            (Coefficient::Uniform(v), _) => *v,
+            (_, Some(e)) => e[3 - a - b].data[idx],
+            (Coefficient::Field(f), None) => {
+                let (sa, sb, d) = (self.st[a], self.st[b], &f.data);
+                T::lit(0.25) * (d[idx] + d[idx - sa] + d[idx - sb] + d[idx - sa - sb])
+            }
+        }
+    }
+}
+
+/// Computes the edge viscosities (average of the four cells around each edge) into `edge`,
+/// indexed by the axis the edge is parallel to. `mu` needs its ghosts filled.
+pub(crate) fn edge_viscosity<T: Real>(grid: &Grid<T>, mu: &Field<T>, edge: &mut [Field<T>; 3]) {
+    for (e, out) in edge.iter_mut().enumerate() {
+        let (a, b) = match e {
+            0 => (1, 2),
+            1 => (2, 0),
+            _ => (0, 1),
+        };
+        par_interior(grid, &mut out.data, |idx, _, _, _| crate::grid::ops::cell_to_edge(grid, mu, a, b, idx));
+        out.fill_ghosts(grid);
+    }
+}
+
+/// `div(mu (grad w + grad w^T))` for component `c` at face `idx`. Needs one ghost layer of `w`.
+#[inline(always)]
+pub(crate) fn viscous_at<T: Real>(
+    grid: &Grid<T>,
+    mu: &ViscosityView<T>,
+    w: &VectorField<T>,
+    c: usize,
+    idx: usize,
+) -> T {
+    let st = grid.strides();
+    let h = grid.h();
+    let two = T::lit(2.0);
+    let wc = &w.c[c].data;
+    let sc = st[c];
+    let s_hi = two * mu.cell(idx) * (wc[idx + sc] - wc[idx]) / h[c];
+    let s_lo = two * mu.cell(idx - sc) * (wc[idx] - wc[idx - sc]) / h[c];
+    let mut div = (s_hi - s_lo) / h[c];
+    for a in (0..3).filter(|&a| a != c) {
+        let wa = &w.c[a].data;
+        let sa = st[a];
+        let shear = |m: usize| mu.edge(c, a, m) * ((wc[m] - wc[m - sa]) / h[a] + (wa[m] - wa[m - sc]) / h[c]);
+        div += (shear(idx + sa) - shear(idx)) / h[a];
+    }
+    div
+}
+
+/// Diagonal coefficient of `-(1/2) V` for component `c` at face `idx` (walls' ghost
+/// contributions left out: an approximation for SOR only).
+#[inline(always)]
+fn viscous_diag<T: Real>(grid: &Grid<T>, mu: &ViscosityView<T>, c: usize, idx: usize) -> T {
+    let st = grid.strides();
+    let h = grid.h();
+    let mut d = (mu.cell(idx) + mu.cell(idx - st[c])) / (h[c] * h[c]);
+    for a in (0..3).filter(|&a| a != c) {
+        d += T::lit(0.5) * (mu.edge(c, a, idx + st[a]) + mu.edge(c, a, idx)) / (h[a] * h[a]);
+    }
+    d
+}
+
+/// Advection `(v . grad v)_c` in divergence form at face `idx` of component `c`.
+#[inline(always)]
+pub(crate) fn advection_at<T: Real>(grid: &Grid<T>, v: &VectorField<T>, c: usize, idx: usize) -> T {
+    let st = grid.strides();
+    let h = grid.h();
+    let half = T::lit(0.5);
+    let quarter = T::lit(0.25);
+    let vc = &v.c[c].data;
+    let sc = st[c];
+    let fc = |m: usize| {
+        let a = half * (vc[m] + vc[m + sc]);
+        a * a
+    };
+    let mut adv = (fc(idx) - fc(idx - sc)) / h[c];
+    for a in (0..3).filter(|&a| a != c) {
+        let va = &v.c[a].data;
+        let sa = st[a];
+        let fe = |m: usize| quarter * (va[m] + va[m - sc]) * (vc[m] + vc[m - sa]);
+        adv += (fe(idx + sa) - fe(idx)) / h[a];
+    }
+    adv
+}
+
+/// Density averaged to face `idx` of component `c`.
+#[inline(always)]
+pub(crate) fn face_density<T: Real>(grid: &Grid<T>, rho: &Coefficient<T>, c: usize, idx: usize) -> T {
+    match rho {
+        Coefficient::Uniform(r) => *r,
+        Coefficient::Field(f) => T::lit(0.5) * (f.data[idx] + f.data[idx - grid.strides()[c]]),
+    }
+}
+
+/// Whether face `(i, j, k)` of component `c` lies on a wall (a fixed unknown).
+#[inline(always)]
+pub(crate) fn is_wall_face<T: Real>(grid: &Grid<T>, c: usize, ijk: [usize; 3]) -> bool {
+    ijk[c] == 0 && !grid.is_periodic(c)
+}
+
+/// An extra term of the implicit predictor operator (2.35), such as the membrane term
+/// `-(dt/4) div(delta H(v*, G_s^n, J^n))`. The operator calls it after its own part.
+pub trait ImplicitTerm<T: Real>: Sync {
+    /// Adds this term's contribution to `y = P x` on interior faces (ghosts of `x` are filled).
+    fn add_apply(&self, grid: &Grid<T>, x: &VectorField<T>, y: &mut VectorField<T>);
+    /// This term's contribution to `(P x)_c` at face `idx` (used by the SOR reference solver).
+    fn apply_at(&self, grid: &Grid<T>, x: &VectorField<T>, c: usize, idx: usize) -> T;
+}
+
+/// The predictor operator `P` of (2.35), matrix-free.
+pub struct Predictor<'a, T: Real> {
+    pub(crate) grid: &'a Grid<T>,
+    pub(crate) inv_dt: T,
+    pub(crate) rho: &'a Coefficient<T>,
+    pub(crate) mu: ViscosityView<'a, T>,
+    pub(crate) extra: Option<&'a dyn ImplicitTerm<T>>,
+}
+
+impl<'a, T: Real> Predictor<'a, T> {
+    /// `(P x)_c` at face `idx` without the extra terms, with the ghosts of `x` as they are.
+    #[inline(always)]
+    fn base_at(&self, x: &VectorField<T>, c: usize, idx: usize, wall: bool) -> T {
+        let diag = face_density(self.grid, self.rho, c, idx) * self.inv_dt;
+        if wall {
+            diag * x.c[c].data[idx]
+        } else {
+            diag * x.c[c].data[idx] - T::lit(0.5) * viscous_at(self.grid, &self.mu, x, c, idx)
+        }
+    }
+
+    /// `(P x)_c` at face `idx` with the ghosts of `x` as they are.
+    #[inline(always)]
+    pub(crate) fn apply_at(&self, x: &VectorField<T>, c: usize, idx: usize, wall: bool) -> T {
+        let y = self.base_at(x, c, idx, wall);
+        match self.extra {
+            Some(e) if !wall => y + e.apply_at(self.grid, x, c, idx),
+            _ => y,
+        }
+    }
+
+    /// Approximate diagonal of `P` at face `idx` (for SOR).
+    #[inline(always)]
+    pub(crate) fn diag_at(&self, c: usize, idx: usize, wall: bool) -> T {
+        let d = face_density(self.grid, self.rho, c, idx) * self.inv_dt;
+        if wall { d } else { d + viscous_diag(self.grid, &self.mu, c, idx) }
+    }
+
+    /// `y = P x` on interior faces, with the ghosts of `x` as they are.
+    pub(crate) fn apply_raw(&self, x: &VectorField<T>, y: &mut VectorField<T>) {
+        let g = self.grid;
+        for (c, yc) in y.c.iter_mut().enumerate() {
+            par_interior(g, &mut yc.data, |idx, i, j, k| {
+                self.base_at(x, c, idx, is_wall_face(g, c, [i, j, k]))
+            });
+        }
+        if let Some(e) = self.extra {
+            e.add_apply(g, x, y);
+        }
+    }
+}
+
+impl<T: Real> LinOp<T, VectorField<T>> for Predictor<'_, T> {
+    fn apply(&self, x: &mut VectorField<T>, y: &mut VectorField<T>) {
+        x.fill_ghosts_homogeneous(self.grid);
+        self.apply_raw(x, y);
+    }
+}
+
+/// Preconditioner of the predictor: the constant-coefficient Helmholtz operator
+/// `(rho_ref/dt) - (mu_ref/2) Lap` per component, inverted exactly by [`SpectralSolver`].
+pub struct HelmholtzPrecond<T: Real> {
+    solvers: [SpectralSolver<T>; 3],
+    grid: Grid<T>,
+    sigma: T,
+    c: T,
+}
+
+impl<T: Real> HelmholtzPrecond<T> {
+    /// Builds the three component solvers. Errors as [`SpectralSolver::new`].
+    pub fn new(grid: &Grid<T>) -> Result<Self> {
+        Ok(HelmholtzPrecond {
+            solvers: [
+                SpectralSolver::new(grid, Location::Velocity(0))?,
+                SpectralSolver::new(grid, Location::Velocity(1))?,
+                SpectralSolver::new(grid, Location::Velocity(2))?,
+            ],
+            grid: grid.clone(),
+            sigma: T::one(),
+            c: T::one(),
+        })
+    }
+
+    /// Sets the reference coefficients: `sigma = rho_ref / dt`, `c = mu_ref / 2`.
+    pub fn set(&mut self, sigma: T, c: T) {
+        self.sigma = sigma;
+        self.c = c;
+    }
+}
+
+impl<T: Real> Precond<T, VectorField<T>> for HelmholtzPrecond<T> {
+    fn apply(&mut self, r: &VectorField<T>, z: &mut VectorField<T>) {
+        for d in 0..3 {
+            self.solvers[d].solve(&self.grid, self.sigma, self.c, &r.c[d].data, &mut z.c[d].data);
+        }
+    }
+}

@@ -1,0 +1,374 @@
+//! [`FlowStepper`]: one time step of the incompressible Navier-Stokes equations with variable
+//! density and viscosity, in the order of (2.31)-(2.39):
+//!
+//! 1. advection `A(v^n)` (divergence form, kinetic-energy conserving), AB2 with `A(v^{n-1})`;
+//! 2. predictor (2.35):
+//!    `P v* = (rho/dt) v^n - rho (3/2 A^n - 1/2 A^{n-1}) - grad p^n + (1/2) V(v^n) + (1/2) div T^n + f`,
+//!    with `P = rho/dt - (1/2) V` (Crank-Nicolson) plus any extra implicit term; solved by
+//!    preconditioned BiCGStab (default) or the paper's SOR;
+//! 3. projection (2.36)-(2.38);
+//! 4. the stress increment (2.39): since `T^n = dt mu (grad g + grad g^T)` with
+//!    `g = grad psi^n / rho`, and `v^n + dt g = v*` of the previous step,
+//!    `(1/2) V(v^n) + (1/2) div T^n = (1/2) V(v*_prev)`: the stepper keeps the previous `v*`
+//!    instead of `T` (the viscosity of the current step is used for both halves).
+//!
+//! A step that fails (no convergence, a non-finite value) returns an error and leaves the state
+//! exactly as it was.
+
+use super::forcing::Forcing;
+use super::krylov::{KrylovParams, KrylovWorkspace, bicgstab};
+use super::momentum::{
+    Coefficient, HelmholtzPrecond, ImplicitTerm, Materials, Predictor, ViscosityView, advection_at,
+    edge_viscosity, face_density, is_wall_face, viscous_at,
+};
+use super::projection::Projection;
+use super::sor::{SorParams, sor};
+use crate::grid::ops::{gradient_at_face, par_interior, par_interior_update};
+use crate::grid::{Field, Grid, VectorField};
+use crate::{Error, Real, Result};
+use rayon::prelude::*;
+
+/// The solver of the predictor (2.35).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PredictorSolver {
+    /// BiCGStab preconditioned by the FFT solve of the constant-coefficient Helmholtz operator
+    /// (the default).
+    Krylov(KrylovParams),
+    /// The paper's SOR (reference).
+    Sor(SorParams),
+}
+
+impl Default for PredictorSolver {
+    fn default() -> Self {
+        PredictorSolver::Krylov(KrylovParams::default())
+    }
+}
+
+/// Settings of a [`FlowStepper`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FlowConfig {
+    /// Solver of the momentum predictor.
+    pub predictor: PredictorSolver,
+    /// Stopping rule of the variable-density pressure PCG (unused when the density is uniform).
+    pub poisson: KrylovParams,
+}
+
+/// What one step reports.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StepInfo {
+    /// Step number after the step.
+    pub step: usize,
+    /// Time after the step.
+    pub time: f64,
+    /// The step size.
+    pub dt: f64,
+    /// Iterations (BiCGStab) or sweeps (SOR) of the predictor.
+    pub predictor_iterations: usize,
+    /// Final relative residual (Krylov) or relative change (SOR) of the predictor.
+    pub predictor_residual: f64,
+    /// PCG iterations of the pressure equation (0 for the direct solve).
+    pub poisson_iterations: usize,
+    /// Advective CFL number `max |v_d| dt / h_d` of the new velocity.
+    pub cfl: f64,
+    /// Viscous number `max(mu / rho) dt / min h^2`.
+    pub viscous_number: f64,
+}
+
+/// Time stepper of the incompressible flow; owns the velocity, the pressure and their history.
+pub struct FlowStepper<T: Real> {
+    grid: Grid<T>,
+    config: FlowConfig,
+    materials: Materials<T>,
+    v: VectorField<T>,
+    p: Field<T>,
+    time: T,
+    step: usize,
+    adv_prev: VectorField<T>,
+    vstar_prev: VectorField<T>,
+    has_history: bool,
+    moving_walls: bool,
+    ws: Workspace<T>,
+}
+
+struct Workspace<T: Real> {
+    adv: VectorField<T>,
+    rhs: VectorField<T>,
+    vstar: VectorField<T>,
+    v_new: VectorField<T>,
+    force: VectorField<T>,
+    psi: Field<T>,
+    edge_mu: Option<[Field<T>; 3]>,
+    krylov: Option<KrylovWorkspace<VectorField<T>>>,
+    precond: HelmholtzPrecond<T>,
+    projection: Projection<T>,
+}
+
+impl<T: Real> FlowStepper<T> {
+    /// A stepper on `grid`, at rest, with the given materials.
+    ///
+    /// Errors: non-positive or non-finite materials, invalid solver settings, a grid the direct
+    /// solvers cannot handle (more than one wall axis).
+    pub fn new(grid: &Grid<T>, materials: Materials<T>, config: FlowConfig) -> Result<Self> {
+        materials.rho.validate(grid, "rho")?;
+        materials.mu.validate(grid, "mu")?;
+        match config.predictor {
+            PredictorSolver::Sor(s) => s.validate()?,
+            PredictorSolver::Krylov(k) => validate_krylov(k, "FlowConfig::predictor")?,
+        }
+        validate_krylov(config.poisson, "FlowConfig::poisson")?;
+        let moving_walls =
+            (0..3).any(|d| grid.bc(d).iter().any(|b| b.velocity().iter().any(|&x| x != T::zero())));
+        let z = || VectorField::zeros(grid);
+        let krylov =
+            matches!(config.predictor, PredictorSolver::Krylov(_)).then(|| KrylovWorkspace::new(grid));
+        let mut s = FlowStepper {
+            grid: grid.clone(),
+            config,
+            materials,
+            v: z(),
+            p: Field::zeros(grid),
+            time: T::zero(),
+            step: 0,
+            adv_prev: z(),
+            vstar_prev: z(),
+            has_history: false,
+            moving_walls,
+            ws: Workspace {
+                adv: z(),
+                rhs: z(),
+                vstar: z(),
+                v_new: z(),
+                force: z(),
+                psi: Field::zeros(grid),
+                edge_mu: None,
+                krylov,
+                precond: HelmholtzPrecond::new(grid)?,
+                projection: Projection::new(grid, config.poisson)?,
+            },
+        };
+        s.v.fill_ghosts(grid);
+        Ok(s)
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &Grid<T> {
+        &self.grid
+    }
+    /// The velocity `v^n` (ghosts filled).
+    pub fn velocity(&self) -> &VectorField<T> {
+        &self.v
+    }
+    /// The pressure `p^n`.
+    pub fn pressure(&self) -> &Field<T> {
+        &self.p
+    }
+    /// Time `t^n`.
+    pub fn time(&self) -> T {
+        self.time
+    }
+    /// Steps taken.
+    pub fn steps(&self) -> usize {
+        self.step
+    }
+    /// The materials used by the next step.
+    pub fn materials(&self) -> &Materials<T> {
+        &self.materials
+    }
+
+    /// Replaces the materials used by the next steps (e.g. the mixture (2.25) of a new `phi`).
+    /// Errors: a non-positive or non-finite value (the stepper keeps its materials).
+    pub fn set_materials(&mut self, mut materials: Materials<T>) -> Result<()> {
+        materials.rho.validate(&self.grid, "rho")?;
+        materials.mu.validate(&self.grid, "mu")?;
+        materials.rho.fill_ghosts(&self.grid);
+        materials.mu.fill_ghosts(&self.grid);
+        self.materials = materials;
+        Ok(())
+    }
+
+    /// Sets the velocity from `f(x)` sampled at the faces, and clears the time history (the next
+    /// step starts with forward Euler for advection). Errors: a non-finite value.
+    pub fn set_velocity(&mut self, f: impl Fn([T; 3]) -> [T; 3]) -> Result<()> {
+        let mut v = VectorField::from_fn(&self.grid, f);
+        v.fill_ghosts(&self.grid);
+        if let Some((c, cell)) = v.first_non_finite(&self.grid) {
+            return Err(Error::NonFinite { field: ["velocity.u", "velocity.v", "velocity.w"][c], cell });
+        }
+        self.v = v;
+        self.vstar_prev.copy_from(&self.v);
+        self.has_history = false;
+        Ok(())
+    }
+
+    /// Sets the pressure from `f(x)` at cell centres (e.g. an exact initial pressure). Errors: a
+    /// non-finite value.
+    pub fn set_pressure(&mut self, f: impl Fn([T; 3]) -> T) -> Result<()> {
+        let p = Field::from_cell_fn(&self.grid, f);
+        if let Some(cell) = p.first_non_finite(&self.grid) {
+            return Err(Error::NonFinite { field: "pressure", cell });
+        }
+        self.p = p;
+        Ok(())
+    }
+
+    /// Advances one step of size `dt` with the explicit forcing `forcing` and an optional extra
+    /// implicit term of the predictor.
+    pub fn step(
+        &mut self,
+        dt: T,
+        forcing: &impl Forcing<T>,
+        extra: Option<&dyn ImplicitTerm<T>>,
+    ) -> Result<StepInfo> {
+        crate::error::positive("dt", dt)?;
+        let g = &self.grid;
+        let inv_dt = T::one() / dt;
+        self.materials.rho.fill_ghosts(g);
+        self.materials.mu.fill_ghosts(g);
+        self.v.fill_ghosts(g);
+        self.p.fill_ghosts(g);
+        self.vstar_prev.fill_ghosts(g);
+        let ws = &mut self.ws;
+        if let Coefficient::Field(mu) = &self.materials.mu {
+            let e = ws.edge_mu.get_or_insert_with(|| std::array::from_fn(|_| Field::zeros(g)));
+            edge_viscosity(g, mu, e);
+        }
+        let mu = ViscosityView::new(
+            g,
+            &self.materials.mu,
+            if self.materials.mu.is_uniform() { None } else { ws.edge_mu.as_ref() },
+        );
+        let rho = &self.materials.rho;
+
+        // 1. Advection A(v^n); AB2 weights (forward Euler on the first step).
+        for c in 0..3 {
+            par_interior(g, &mut ws.adv.c[c].data, |idx, _, _, _| advection_at(g, &self.v, c, idx));
+        }
+        let (a1, a0) = if self.has_history { (T::lit(1.5), T::lit(-0.5)) } else { (T::one(), T::zero()) };
+
+        // 2. Explicit forces.
+        let forced = forcing.is_active();
+        if forced {
+            for c in 0..3 {
+                ws.force.c[c].fill(T::zero());
+            }
+            forcing.add(g, self.time, &self.v, &mut ws.force);
+        }
+
+        // 3. Right-hand side of (2.35).
+        let half = T::lit(0.5);
+        for c in 0..3 {
+            let (adv, advp, force) = (&ws.adv.c[c].data, &self.adv_prev.c[c].data, &ws.force.c[c].data);
+            let (v, p, vsp) = (&self.v, &self.p, &self.vstar_prev);
+            par_interior(g, &mut ws.rhs.c[c].data, |idx, i, j, k| {
+                if is_wall_face(g, c, [i, j, k]) {
+                    return T::zero();
+                }
+                let rf = face_density(g, rho, c, idx);
+                let mut b = rf * inv_dt * v.c[c].data[idx]
+                    - rf * (a1 * adv[idx] + a0 * advp[idx])
+                    - gradient_at_face(g, p, c, idx)
+                    + half * viscous_at(g, &mu, vsp, c, idx);
+                if forced {
+                    b += force[idx];
+                }
+                b
+            });
+        }
+        let op = Predictor { grid: g, inv_dt, rho, mu, extra };
+        if self.moving_walls {
+            // Lift: the operator applied to a field that is zero inside with the wall velocity in
+            // its ghosts moves to the right-hand side, so the solve is homogeneous.
+            let lift = &mut ws.v_new;
+            for c in 0..3 {
+                lift.c[c].fill(T::zero());
+            }
+            lift.fill_ghosts(g);
+            op.apply_raw(lift, &mut ws.vstar);
+            for c in 0..3 {
+                let l = &ws.vstar.c[c].data;
+                par_interior_update(g, &mut ws.rhs.c[c].data, |idx, _, _, _, b| b - l[idx]);
+            }
+        }
+
+        // 4. Solve the predictor from v^n.
+        ws.vstar.copy_from(&self.v);
+        let (iters, resid) = match self.config.predictor {
+            PredictorSolver::Krylov(params) => {
+                let (lo_r, _) = rho.range(g);
+                let (_, hi_mu) = self.materials.mu.range(g);
+                ws.precond.set(lo_r * inv_dt, half * hi_mu);
+                let kws = ws.krylov.get_or_insert_with(|| KrylovWorkspace::new(g));
+                let info = bicgstab(g, &op, &mut ws.precond, &ws.rhs, &mut ws.vstar, kws, params)?;
+                (info.iterations, info.residual)
+            }
+            PredictorSolver::Sor(params) => sor(g, &op, &ws.rhs, &mut ws.vstar, params)?,
+        };
+        ws.vstar.fill_ghosts(g);
+
+        // 5. Projection (2.36)-(2.37).
+        let pinfo = ws.projection.project(g, rho, dt, &ws.vstar, &mut ws.psi, &mut ws.v_new)?;
+        ws.v_new.fill_ghosts(g);
+        if let Some((c, cell)) = ws.v_new.first_non_finite(g) {
+            return Err(Error::NonFinite { field: ["velocity.u", "velocity.v", "velocity.w"][c], cell });
+        }
+
+        // 6. Commit: nothing above touched the state.
+        std::mem::swap(&mut self.v, &mut ws.v_new);
+        let psi = &ws.psi.data;
+        par_interior_update(g, &mut self.p.data, |idx, _, _, _, p| p + psi[idx]);
+        std::mem::swap(&mut self.adv_prev, &mut ws.adv);
+        std::mem::swap(&mut self.vstar_prev, &mut ws.vstar);
+        self.has_history = true;
+        self.time += dt;
+        self.step += 1;
+        Ok(StepInfo {
+            step: self.step,
+            time: self.time.f64(),
+            dt: dt.f64(),
+            predictor_iterations: iters,
+            predictor_residual: resid,
+            poisson_iterations: pinfo.iterations,
+            cfl: self.cfl(dt),
+            viscous_number: self.viscous_number(dt),
+        })
+    }
+
+    /// `max_d max |v_d| dt / h_d` over interior faces.
+    pub fn cfl(&self, dt: T) -> f64 {
+        let g = &self.grid;
+        let h = g.h();
+        (0..3)
+            .map(|d| {
+                let vmax = self.v.c[d]
+                    .data
+                    .par_chunks(g.dims()[0])
+                    .with_min_len(crate::grid::ops::min_rows(g.dims()[0]))
+                    .enumerate()
+                    .filter(|(row, _)| g.row_jk(*row).is_some())
+                    .map(|(_, line)| line.iter().fold(T::zero(), |m, &x| m.max(x.abs())))
+                    .reduce(T::zero, |a, b| a.max(b));
+                (vmax * dt / h[d]).f64()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// `max(mu / rho) dt / min(h)^2`.
+    pub fn viscous_number(&self, dt: T) -> f64 {
+        let g = &self.grid;
+        let (_, mu_hi) = self.materials.mu.range(g);
+        let (rho_lo, _) = self.materials.rho.range(g);
+        let h = g.h();
+        let hmin = h[0].min(h[1]).min(h[2]);
+        (mu_hi / rho_lo * dt / (hmin * hmin)).f64()
+    }
+}
+
+fn validate_krylov(k: KrylovParams, name: &'static str) -> Result<()> {
+    if !(k.tolerance > 0.0 && k.tolerance < 1.0) {
+        return Err(Error::invalid(name, format!("tolerance {}", k.tolerance), "a tolerance in (0, 1)"));
+    }
+    if k.max_iterations == 0 {
+        return Err(Error::invalid(name, "max_iterations 0", "max_iterations >= 1"));
+    }
+    Ok(())
+}
