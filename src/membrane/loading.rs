@@ -148,6 +148,13 @@ pub fn equibiaxial_tension<T: Real, L: SurfaceLaw<T> + ?Sized>(law: &L, lambda: 
 /// The equibiaxial stretch `λ` at which the isotropic tension equals `tension`, for any law
 /// (the inverse of [`equibiaxial_tension`]); the area dilation is `λ²`.
 ///
+/// The root is bracketed by halving (compression) or doubling (tension) `λ` from 1, then
+/// refined by safeguarded Newton. This is unique when the tension increases with `λ`, as it
+/// does under tension for stable laws. In compression the response need not be monotone: the
+/// Skalak tension has a minimum below `−G_s` for `α > 0` and tends to `−G_s` as `λ → 0`, so a
+/// compressive target may have two roots (the one found is the one in the first bracket, not
+/// necessarily the stable branch) or none.
+///
 /// # Errors
 /// [`Error::InvalidParameter`] naming `tension` if it is not finite, or if the law cannot reach
 /// it for any `λ` in `[2^-60, 2^60]` (e.g. the neo-Hookean tension saturates at
