@@ -12,7 +12,7 @@
 //! where `λ1, λ2` are the principal in-plane stretches and `J_s = λ1 λ2 = √c2` is the ratio of
 //! current to reference area. The stress (2.4) and its Jacobian (App. B) need only the first and
 //! second partial derivatives of `W_s`; they are computed once, generically, in
-//! [`super::stress`]. A new law therefore implements [`SurfaceLaw`] — the energy, its gradient
+//! [`super::stress`](mod@super::stress). A new law therefore implements [`SurfaceLaw`] — the energy, its gradient
 //! and its Hessian in `(c1, c2)` — and gets the stress, the Jacobian, the quasi-implicit term
 //! `H` and the simple-loading solvers of [`super::loading`] for free.
 //!
@@ -313,7 +313,9 @@ impl<T: Real> SurfaceLaw<T> for Skalak<T> {
     }
 }
 
+// Tensor components are indexed by number in the tests, as in the equations.
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
 

@@ -48,7 +48,7 @@ fn solve_increasing<T: Real>(f: impl Fn(T) -> (T, T)) -> Option<T> {
     if f1 > zero {
         let mut found = false;
         for _ in 0..MAX_EXPAND {
-            lo = lo / two;
+            lo /= two;
             let (v, _) = f(lo);
             if v < zero {
                 found = true;
@@ -65,7 +65,7 @@ fn solve_increasing<T: Real>(f: impl Fn(T) -> (T, T)) -> Option<T> {
     } else {
         let mut found = false;
         for _ in 0..MAX_EXPAND {
-            hi = hi * two;
+            hi *= two;
             let (v, _) = f(hi);
             if v > zero {
                 found = true;
@@ -176,7 +176,9 @@ pub fn equibiaxial_stretch<T: Real, L: SurfaceLaw<T> + ?Sized>(law: &L, tension:
     })
 }
 
+// Tensor components are indexed by number in the tests, as in the equations.
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use crate::membrane::law::{NeoHookean, Skalak};

@@ -14,14 +14,14 @@
 //!
 //! - [`law`]: the [`SurfaceLaw`] trait (energy and its derivatives in `c1`, `c2`) and the
 //!   paper's laws [`NeoHookean`] (2.5) and [`Skalak`] (2.6);
-//! - [`stress`]: `B_s`, `c1`, `c2`, `τ`, `J'`, `H`, energy density and principal tensions —
+//! - [`stress`](mod@stress): `B_s`, `c1`, `c2`, `τ`, `J'`, `H`, energy density and principal tensions —
 //!   pointwise, allocation free, generic over the law and over `f32`/`f64`;
 //! - [`loading`]: uniaxial and equibiaxial tension of a flat sheet for any law (checked against
 //!   the closed forms of the two paper laws and against Barthès-Biesel et al. 2002).
 //!
 //! Conventions: [`Sym`](crate::tensor::Sym) holds tensor components in the order
 //! `(11, 22, 33, 12, 23, 31)`; `grad_v[i][j] = ∂v_j/∂x_i` (the paper's `∇v`); the 6x6 Jacobian
-//! maps tensor-component increments `dG'` to `dτ'` (see [`stress`] for the factor-two
+//! maps tensor-component increments `dG'` to `dτ'` (see [`stress`](mod@stress) for the factor-two
 //! convention and for two corrections to Appendix B).
 
 pub mod law;

@@ -74,7 +74,7 @@ pub type Jacobian<T> = [[T; 6]; 6];
 
 /// Weights turning a derivative with respect to one tensor entry into one with respect to a
 /// [`Sym`] component (off-diagonal components stand for two entries).
-const W: [f64; 6] = [1.0, 1.0, 1.0, 2.0, 2.0, 2.0];
+const SYM_WEIGHT: [f64; 6] = [1.0, 1.0, 1.0, 2.0, 2.0, 2.0];
 
 /// Surface kinematics at a point: the projector, `B_s` and its invariants.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -178,7 +178,7 @@ pub fn stress_and_jacobian<T: Real, L: SurfaceLaw<T> + ?Sized>(
     let mut pw = [zero; 6];
     let mut cw = [zero; 6];
     for c in 0..6 {
-        let wt = T::lit(W[c]);
+        let wt = T::lit(SYM_WEIGHT[c]);
         pw[c] = wt * k.p[c];
         cw[c] = wt * (trb * k.p[c] - k.b[c]);
     }
@@ -303,7 +303,9 @@ pub fn tension_invariants<T: Real, L: SurfaceLaw<T> + ?Sized>(
     }
 }
 
+// Tensor components are indexed by number in the tests, as in the equations.
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use crate::membrane::law::{NeoHookean, Skalak};
