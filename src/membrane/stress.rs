@@ -46,8 +46,9 @@
 //!
 //! The transform (B.3) as printed omits, in its lower-right 3x3 block (rows and columns
 //! 12, 23, 31), the second product of `∂B_pq/∂G'_(kl) = P_pk P_lq + P_pl P_kq`: e.g. the
-//! (12, 12) entry must be `P11 P22 + P12 P12`, not `P11 P22`. The difference vanishes when `n` is
-//! along a coordinate axis (as in 2D runs) but not in general; this module uses the full
+//! (12, 12) entry must be `P11 P22 + P12 P12`, not `P11 P22`. The difference vanishes only when `n` is
+//! along a coordinate axis (`P12 = P23 = P31 = 0`); on a curved interface, even in a 2D run
+//! (`n = (n1, n2, 0)`, `P12 = −n1 n2`), it does not; this module uses the full
 //! expression and tests it against finite differences. The upper-right block of (B.3) has the
 //! factor 2 consistent with the convention above. (B.4) assumes `W_12 = 0`; here it is kept.
 //!
@@ -92,8 +93,9 @@ pub struct SurfaceKinematics<T> {
 /// `P`, `B_s = P G_s P` (2.18) and the invariants `c1`, `c2` (2.3) for a unit normal `n`.
 ///
 /// `B_s` is formed as `G − n⊗g − g⊗n + (n·g) n⊗n` with `g = G n` (equal to `P G P` for unit
-/// `n`); `c2` is the sum of the principal 2x2 minors of `B_s` (equal to (2.3b)), which avoids
-/// the cancellation of `tr(B)² − tr(B²)` when one stretch is much smaller than the other.
+/// `n`); `c2` is the sum of the principal 2x2 minors of `B_s` (equal to (2.3b)), which reduces
+/// the cancellation of `tr(B)² − tr(B²)` when one stretch is much smaller than the other
+/// (for `B_s = diag(a, b, 0)` it gives `a b` exactly).
 #[inline]
 pub fn surface_kinematics<T: Real>(g: &Sym<T>, n: &Vec3<T>) -> SurfaceKinematics<T> {
     let p = projector(n);
