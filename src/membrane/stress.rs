@@ -46,9 +46,9 @@
 //!
 //! The transform (B.3) as printed omits, in its lower-right 3x3 block (rows and columns
 //! 12, 23, 31), the second product of `∂B_pq/∂G'_(kl) = P_pk P_lq + P_pl P_kq`: e.g. the
-//! (12, 12) entry must be `P11 P22 + P12 P12`, not `P11 P22`. The difference vanishes only when `n` is
-//! along a coordinate axis (`P12 = P23 = P31 = 0`); on a curved interface, even in a 2D run
-//! (`n = (n1, n2, 0)`, `P12 = −n1 n2`), it does not; this module uses the full
+//! (12, 12) entry must be `P11 P22 + P12 P12`, not `P11 P22`. The difference vanishes only
+//! when `n` is along a coordinate axis (`P12 = P23 = P31 = 0`); on a curved interface, even in
+//! a 2D run (`n = (n1, n2, 0)`, `P12 = −n1 n2`), it does not. This module uses the full
 //! expression and tests it against finite differences. The upper-right block of (B.3) has the
 //! factor 2 consistent with the convention above. (B.4) assumes `W_12 = 0`; here it is kept.
 //!
