@@ -1,1 +1,37 @@
-//! (module under construction)
+//! Membrane mechanics at a point: eqs (2.1)–(2.6), (2.18), (2.33), (2.35) and Appendix B.
+//!
+//! The membrane is described on the Eulerian grid by the surface deformation tensor
+//! `G_s = F·P_R·Fᵀ` (2.18) and the current unit normal `n`; the surface left Cauchy–Green tensor
+//! is `B_s = P·G_s·P` with `P = I − n n`. From `B_s` follow the invariants `c1`, `c2` (2.3), the
+//! in-plane Cauchy stress (2.4)
+//!
+//! ```text
+//! τ = (2/√c2) (∂W_s/∂c1 B_s + c2 ∂W_s/∂c2 P),
+//! ```
+//!
+//! its Jacobian `J = ∂τ/∂G_s` (2.33) used by the quasi-implicit predictor (2.32)–(2.35), and the
+//! term `H(∇v, G_s, J)` of (2.35), (B.6)–(B.7).
+//!
+//! - [`law`]: the [`SurfaceLaw`] trait (energy and its derivatives in `c1`, `c2`) and the
+//!   paper's laws [`NeoHookean`] (2.5) and [`Skalak`] (2.6);
+//! - [`stress`](mod@stress): `B_s`, `c1`, `c2`, `τ`, `J'`, `H`, energy density and principal tensions —
+//!   pointwise, allocation free, generic over the law and over `f32`/`f64`;
+//! - [`loading`]: uniaxial and equibiaxial tension of a flat sheet for any law (checked against
+//!   the closed forms of the two paper laws and against Barthès-Biesel et al. 2002).
+//!
+//! Conventions: [`Sym`](crate::tensor::Sym) holds tensor components in the order
+//! `(11, 22, 33, 12, 23, 31)`; `grad_v[i][j] = ∂v_j/∂x_i` (the paper's `∇v`); the 6x6 Jacobian
+//! maps tensor-component increments `dG'` to `dτ'` (see [`stress`](mod@stress) for the factor-two
+//! convention and for two corrections to Appendix B).
+
+pub mod law;
+pub mod loading;
+pub mod stress;
+
+pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
+pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};
+pub use stress::{
+    Jacobian, SurfaceKinematics, TensionInvariants, energy_density, h_tensor, jacobian,
+    principal_tensions, stress, stress_and_jacobian, stretching, surface_kinematics,
+    tension_invariants,
+};
