@@ -47,11 +47,7 @@ struct Args {
 }
 
 fn parse_args() -> BoxResult<Args> {
-    let mut args = Args {
-        out: PathBuf::from("out/uniaxial_stretch"),
-        n: 200,
-        reference: None,
-    };
+    let mut args = Args { out: PathBuf::from("out/uniaxial_stretch"), n: 200, reference: None };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         let mut value = |name: &str| it.next().ok_or_else(|| format!("{name} needs a value"));
@@ -59,9 +55,7 @@ fn parse_args() -> BoxResult<Args> {
             "--out" => args.out = PathBuf::from(value("--out")?),
             "--n" => {
                 let v = value("--n")?;
-                args.n = v
-                    .parse()
-                    .map_err(|_| format!("--n: expected an integer >= 2, got {v}"))?;
+                args.n = v.parse().map_err(|_| format!("--n: expected an integer >= 2, got {v}"))?;
                 if args.n < 2 {
                     return Err(format!("--n: expected an integer >= 2, got {}", args.n).into());
                 }
@@ -84,31 +78,19 @@ fn reference_dir(given: Option<PathBuf>) -> BoxResult<PathBuf> {
         return Ok(d);
     }
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    for c in [
-        root.join("../shared"),
-        root.join("shared"),
-        root.join("../../shared"),
-    ] {
+    for c in [root.join("../shared"), root.join("shared"), root.join("../../shared")] {
         let d = c.join("reference");
         if d.join("uniaxial_stretch").is_dir() {
             return Ok(d);
         }
     }
-    Err(
-        "shared/reference/uniaxial_stretch not found beside the checkout; pass --reference DIR"
-            .into(),
-    )
+    Err("shared/reference/uniaxial_stretch not found beside the checkout; pass --reference DIR".into())
 }
 
 fn read_points(path: &Path) -> BoxResult<Vec<(f64, f64)>> {
-    let text =
-        std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?;
+    let text = std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?;
     let mut pts = Vec::new();
-    for (k, line) in text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty())
-    {
+    for (k, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
         let mut it = line.split(',').map(|x| x.trim().parse::<f64>());
         match (it.next(), it.next()) {
             (Some(Ok(x)), Some(Ok(y))) => pts.push((x, y)),
@@ -128,10 +110,7 @@ struct Published {
 
 impl Published {
     fn max_full_scale_err(&self) -> f64 {
-        self.points
-            .iter()
-            .map(|p| (p.1 - p.2).abs() / self.full_scale)
-            .fold(0.0, f64::max)
+        self.points.iter().map(|p| (p.1 - p.2).abs() / self.full_scale).fold(0.0, f64::max)
     }
     fn pointwise(&self) -> impl Iterator<Item = f64> + '_ {
         self.points.iter().map(|p| (p.1 - p.2).abs() / p.2.abs())
@@ -140,19 +119,13 @@ impl Published {
 
 fn main() -> BoxResult<()> {
     let args = parse_args()?;
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| format!("creating {}: {e}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("creating {}: {e}", args.out.display()))?;
 
     // G_s = 1 for both laws.
     let neo = NeoHookean::new(3.0)?;
     let skalak = Skalak::new(2.0, 1.0)?;
     println!("Uniaxial tension of a flat membrane (T2 = 0), G_s = 1");
-    println!(
-        "  {}: E_s = {}, G_s = {}",
-        SurfaceLaw::<f64>::name(&neo),
-        neo.es(),
-        neo.shear_modulus()
-    );
+    println!("  {}: E_s = {}, G_s = {}", SurfaceLaw::<f64>::name(&neo), neo.es(), neo.shear_modulus());
     println!(
         "  {}: E_s = {}, alpha = C = {}, G_s = {}",
         SurfaceLaw::<f64>::name(&skalak),
@@ -181,10 +154,7 @@ fn main() -> BoxResult<()> {
         err_sk = err_sk.max((gs - ts).abs() / ts.abs());
         curve_neo.push((e1, tn));
         curve_sk.push((e1, ts));
-        writeln!(
-            csv,
-            "{e1:.6},{l1:.12},{tn:.15e},{gn:.15e},{l2n:.12},{ts:.15e},{gs:.15e},{l2s:.12}"
-        )?;
+        writeln!(csv, "{e1:.6},{l1:.12},{tn:.15e},{gn:.15e},{l2n:.12},{ts:.15e},{gs:.15e},{l2s:.12}")?;
     }
     let curves_path = args.out.join("model_curves.csv");
     std::fs::write(&curves_path, csv).map_err(|e| format!("{}: {e}", curves_path.display()))?;
@@ -193,11 +163,7 @@ fn main() -> BoxResult<()> {
     let refdir = reference_dir(args.reference)?.join("uniaxial_stretch");
     let mut published = Vec::new();
     for (name, file, law) in [
-        (
-            "neo_hookean",
-            "barthes_biesel_2002_neo_hookean.csv",
-            &neo as &dyn SurfaceLaw<f64>,
-        ),
+        ("neo_hookean", "barthes_biesel_2002_neo_hookean.csv", &neo as &dyn SurfaceLaw<f64>),
         ("skalak", "barthes_biesel_2002_skalak.csv", &skalak),
     ] {
         let mut points = Vec::new();
@@ -206,11 +172,7 @@ fn main() -> BoxResult<()> {
             points.push((e1, y, t));
         }
         let full_scale = points.iter().map(|p| p.2).fold(0.0, f64::max);
-        published.push(Published {
-            name,
-            points,
-            full_scale,
-        });
+        published.push(Published { name, points, full_scale });
     }
     let mut cmp = String::from("law,e1,published,model,rel_err_pointwise,err_over_full_scale\n");
     for p in &published {
@@ -225,16 +187,8 @@ fn main() -> BoxResult<()> {
     // Plot.
     let svg = svg_plot(
         &[
-            Series {
-                label: "neo-Hookean, closed form",
-                color: "#1f77b4",
-                kind: Kind::Line(&curve_neo),
-            },
-            Series {
-                label: "Skalak C = 1, closed form",
-                color: "#d62728",
-                kind: Kind::Line(&curve_sk),
-            },
+            Series { label: "neo-Hookean, closed form", color: "#1f77b4", kind: Kind::Line(&curve_neo) },
+            Series { label: "Skalak C = 1, closed form", color: "#d62728", kind: Kind::Line(&curve_sk) },
             Series {
                 label: "neo-Hookean, generic stress code",
                 color: "#1f77b4",
@@ -248,24 +202,12 @@ fn main() -> BoxResult<()> {
             Series {
                 label: "Barthès-Biesel et al. 2002, neo-Hookean",
                 color: "#1f77b4",
-                kind: Kind::Circles(
-                    &published[0]
-                        .points
-                        .iter()
-                        .map(|p| (p.0, p.1))
-                        .collect::<Vec<_>>(),
-                ),
+                kind: Kind::Circles(&published[0].points.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>()),
             },
             Series {
                 label: "Barthès-Biesel et al. 2002, Skalak C = 1",
                 color: "#d62728",
-                kind: Kind::Circles(
-                    &published[1]
-                        .points
-                        .iter()
-                        .map(|p| (p.0, p.1))
-                        .collect::<Vec<_>>(),
-                ),
+                kind: Kind::Circles(&published[1].points.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>()),
             },
         ],
         (0.0, e_max),
@@ -295,10 +237,7 @@ fn main() -> BoxResult<()> {
         );
     }
     println!();
-    println!(
-        "Generic stress code vs closed form (0 < e1 <= {e_max}, {} samples):",
-        args.n
-    );
+    println!("Generic stress code vs closed form (0 < e1 <= {e_max}, {} samples):", args.n);
     println!("  neo_hookean max relative difference {err_neo:.3e}");
     println!("  skalak      max relative difference {err_sk:.3e}");
     println!();
@@ -309,17 +248,9 @@ fn main() -> BoxResult<()> {
         max_fs = max_fs.max(fs);
         let pw: Vec<f64> = p.pointwise().collect();
         let over = pw.iter().filter(|&&r| r > 0.03).count();
-        let (kmax, rmax) = pw
-            .iter()
-            .enumerate()
-            .fold((0, 0.0f64), |m, (k, &r)| if r > m.1 { (k, r) } else { m });
-        let large: Vec<f64> = p
-            .points
-            .iter()
-            .zip(&pw)
-            .filter(|(q, _)| q.0 >= 0.2)
-            .map(|(_, &r)| r)
-            .collect();
+        let (kmax, rmax) =
+            pw.iter().enumerate().fold((0, 0.0f64), |m, (k, &r)| if r > m.1 { (k, r) } else { m });
+        let large: Vec<f64> = p.points.iter().zip(&pw).filter(|(q, _)| q.0 >= 0.2).map(|(_, &r)| r).collect();
         let rmax_large = large.iter().copied().fold(0.0, f64::max);
         println!(
             "  {:<11} {} points, full scale {:.3}: max |error|/full scale {:.4}; pointwise \
@@ -335,12 +266,7 @@ fn main() -> BoxResult<()> {
         );
     }
     println!();
-    println!(
-        "Wrote {}, {} and {}",
-        curves_path.display(),
-        cmp_path.display(),
-        svg_path.display()
-    );
+    println!("Wrote {}, {} and {}", curves_path.display(), cmp_path.display(), svg_path.display());
     println!(
         "RESULT max_rel_err_neo_hookean={err_neo:.3e} max_rel_err_skalak={err_sk:.3e} max_rel_err_bb2002={max_fs:.4}"
     );
@@ -385,11 +311,7 @@ fn svg_plot(
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="13">"#
     );
     let _ = writeln!(s, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
-    let _ = writeln!(
-        s,
-        r#"<text x="{}" y="24" text-anchor="middle" font-size="16">{title}</text>"#,
-        w / 2.0
-    );
+    let _ = writeln!(s, r#"<text x="{}" y="24" text-anchor="middle" font-size="16">{title}</text>"#, w / 2.0);
     // Grid and ticks.
     for k in 0..=5 {
         let x = x0 + (x1 - x0) * k as f64 / 5.0;
@@ -484,19 +406,11 @@ fn svg_plot(
                 ly - 3.0,
                 se.color
             ),
-            Kind::Circles(_) => format!(
-                r#"<circle cx="{}" cy="{ly}" r="3.5" fill="none" stroke="{}"/>"#,
-                lx + 11.0,
-                se.color
-            ),
+            Kind::Circles(_) => {
+                format!(r#"<circle cx="{}" cy="{ly}" r="3.5" fill="none" stroke="{}"/>"#, lx + 11.0, se.color)
+            }
         };
-        let _ = writeln!(
-            s,
-            r#"{mark}<text x="{}" y="{}">{}</text>"#,
-            lx + 30.0,
-            ly + 4.0,
-            se.label
-        );
+        let _ = writeln!(s, r#"{mark}<text x="{}" y="{}">{}</text>"#, lx + 30.0, ly + 4.0, se.label);
     }
     s.push_str("</svg>\n");
     s

@@ -16,8 +16,8 @@
 
 use eulermembrane::Real;
 use eulermembrane::membrane::{
-    NeoHookean, SurfaceLaw, energy_density, jacobian, principal_tensions, small_strain_moduli,
-    stress, stress_and_jacobian, tension_invariants, uniaxial_tension,
+    NeoHookean, SurfaceLaw, energy_density, jacobian, principal_tensions, small_strain_moduli, stress,
+    stress_and_jacobian, tension_invariants, uniaxial_tension,
 };
 use eulermembrane::tensor::{Mat3, Sym, Vec3, ddot, mat_to_sym, matmul, transpose};
 use proptest::prelude::*;
@@ -38,8 +38,7 @@ impl<T: Real> SurfaceLaw<T> for MooneyRivlin<T> {
         let (one, h) = (T::one(), T::lit(0.5));
         let r = c2.recip();
         h * self.gs
-            * ((one - self.psi) * (c1 - T::lit(2.0) + r)
-                + self.psi * ((c1 + one) * r + c2 - T::lit(3.0)))
+            * ((one - self.psi) * (c1 - T::lit(2.0) + r) + self.psi * ((c1 + one) * r + c2 - T::lit(3.0)))
     }
 
     fn gradient(&self, c1: T, c2: T) -> [T; 2] {
@@ -54,11 +53,7 @@ impl<T: Real> SurfaceLaw<T> for MooneyRivlin<T> {
     fn hessian(&self, c1: T, c2: T) -> [T; 3] {
         let (one, h) = (T::one(), T::lit(0.5));
         let r = c2.recip();
-        [
-            T::zero(),
-            -h * self.gs * self.psi * r * r,
-            self.gs * (one + self.psi * c1) * r * r * r,
-        ]
+        [T::zero(), -h * self.gs * self.psi * r * r, self.gs * (one + self.psi * c1) * r * r * r]
     }
 }
 
@@ -205,10 +200,7 @@ fn small_strain_moduli_and_reference_state() {
     for psi in [0.0, 0.3, 1.0] {
         let m = law(2.0, psi);
         let (mu, k) = small_strain_moduli(&m);
-        assert!(
-            (mu - 2.0).abs() < 1e-14 && (k - 6.0).abs() < 1e-13,
-            "{psi}: {mu} {k}"
-        );
+        assert!((mu - 2.0).abs() < 1e-14 && (k - 6.0).abs() < 1e-13, "{psi}: {mu} {k}");
         let [w1, w2] = m.gradient(1.0, 1.0);
         assert!((w1 + w2).abs() < 1e-15);
         let n = [0.0, 0.6, 0.8];
@@ -240,10 +232,7 @@ fn uniaxial_tension_of_custom_law() {
 /// The same law in `f32`, through a trait object: the API is generic over the float type.
 #[test]
 fn custom_law_in_f32() {
-    let m: &dyn SurfaceLaw<f32> = &MooneyRivlin {
-        gs: 1.0f32,
-        psi: 0.5,
-    };
+    let m: &dyn SurfaceLaw<f32> = &MooneyRivlin { gs: 1.0f32, psi: 0.5 };
     let g: Sym<f32> = [1.44, 1.0, 0.0, 0.0, 0.0, 0.0];
     let n = [0.0f32, 0.0, 1.0];
     let tau = stress(m, &g, &n);

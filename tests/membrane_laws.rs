@@ -9,9 +9,9 @@
 //! `E_s ∈ [0.1, 10]`, `α ∈ [0, 50]`. 256 cases per property.
 
 use eulermembrane::membrane::{
-    NeoHookean, Skalak, SurfaceLaw, energy_density, equibiaxial_stretch, equibiaxial_tension,
-    h_tensor, jacobian, stress, stress_and_jacobian, stretching, surface_kinematics,
-    tension_invariants, uniaxial_tension,
+    NeoHookean, Skalak, SurfaceLaw, energy_density, equibiaxial_stretch, equibiaxial_tension, h_tensor,
+    jacobian, stress, stress_and_jacobian, stretching, surface_kinematics, tension_invariants,
+    uniaxial_tension,
 };
 use eulermembrane::tensor::{
     Mat3, Sym, Vec3, ddot, dot, mat_to_sym, matmul, projector, sym_mul_vec, sym_to_mat, transpose,
@@ -406,11 +406,7 @@ proptest! {
 }
 
 fn cross(a: &Vec3<f64>, b: &Vec3<f64>) -> Vec3<f64> {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -421,20 +417,14 @@ fn cross(a: &Vec3<f64>, b: &Vec3<f64>) -> Vec3<f64> {
 /// checkout), or two levels up (a git worktree under `wt/`).
 fn reference_file(file: &str) -> PathBuf {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let candidates = [
-        root.join("../shared"),
-        root.join("shared"),
-        root.join("../../shared"),
-    ];
+    let candidates = [root.join("../shared"), root.join("shared"), root.join("../../shared")];
     for c in &candidates {
         let p = c.join("reference/uniaxial_stretch").join(file);
         if p.is_file() {
             return p;
         }
     }
-    panic!(
-        "reference data {file} not found under {candidates:?} (expected shared/ beside the checkout)"
-    );
+    panic!("reference data {file} not found under {candidates:?} (expected shared/ beside the checkout)");
 }
 
 fn read_points(file: &str) -> Vec<(f64, f64)> {
@@ -480,10 +470,7 @@ fn skalak_c1() -> Skalak<f64> {
 /// [`bb2002_pointwise_relative_errors`].
 #[test]
 fn bb2002_uniaxial_within_3_percent_of_full_scale() {
-    for (file, law) in [
-        (NEO_FILE, &neo() as &dyn SurfaceLaw<f64>),
-        (SKALAK_FILE, &skalak_c1()),
-    ] {
+    for (file, law) in [(NEO_FILE, &neo() as &dyn SurfaceLaw<f64>), (SKALAK_FILE, &skalak_c1())] {
         let pts = compare(file, law);
         assert!(pts.len() > 40, "{file}: {} points", pts.len());
         let full = pts.iter().fold(0.0f64, |m, p| m.max(p.2));
@@ -525,10 +512,7 @@ fn bb2002_pointwise_relative_errors() {
         for (k, &(e1, y, t)) in compare(file, law).iter().enumerate() {
             let rel = (y - t).abs() / t.abs();
             if outliers.contains(&k) {
-                assert!(
-                    rel > 0.03,
-                    "{file} #{k} (e1 = {e1}) is now within 3% ({rel}): update the list"
-                );
+                assert!(rel > 0.03, "{file} #{k} (e1 = {e1}) is now within 3% ({rel}): update the list");
             } else {
                 assert!(
                     rel <= 0.03,
@@ -545,9 +529,6 @@ fn bb2002_pointwise_relative_errors() {
 #[test]
 fn bb2002_curves_discriminate_the_laws() {
     let pts = compare(SKALAK_FILE, &neo());
-    let worst = pts
-        .iter()
-        .map(|&(_, y, t)| (y - t).abs() / y.abs())
-        .fold(0.0f64, f64::max);
+    let worst = pts.iter().map(|&(_, y, t)| (y - t).abs() / y.abs()).fold(0.0f64, f64::max);
     assert!(worst > 0.5, "{worst}");
 }

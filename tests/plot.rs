@@ -5,8 +5,7 @@
 use eulermembrane::Error;
 use eulermembrane::io::csv::{CsvWriter, format_f64, read_columns, read_xy, write_columns};
 use eulermembrane::io::plot::{
-    Color, Figure, Legend, LineStyle, Marker, Panels, Scale, contour_segments, linear_ticks,
-    log_ticks,
+    Color, Figure, Legend, LineStyle, Marker, Panels, Scale, contour_segments, linear_ticks, log_ticks,
 };
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -14,25 +13,16 @@ use std::path::{Path, PathBuf};
 
 /// A scratch directory for this test binary, under `target/`.
 fn scratch(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("target/test-output/plot")
-        .join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("target/test-output/plot").join(name)
 }
 
 /// Checks that the tags of `svg` nest properly; returns the element names seen.
 fn check_well_formed(svg: &str) -> Vec<String> {
-    assert!(
-        svg.starts_with("<svg"),
-        "does not start with <svg: {}",
-        &svg[..40.min(svg.len())]
-    );
+    assert!(svg.starts_with("<svg"), "does not start with <svg: {}", &svg[..40.min(svg.len())]);
     assert!(svg.trim_end().ends_with("</svg>"));
     for bad in ["NaN", "inf"] {
         if let Some(k) = svg.find(bad) {
-            panic!(
-                "non-finite number in the SVG: {}",
-                &svg[k.saturating_sub(200)..k + 20]
-            );
+            panic!("non-finite number in the SVG: {}", &svg[k.saturating_sub(200)..k + 20]);
         }
     }
     let mut stack: Vec<String> = Vec::new();
@@ -43,33 +33,23 @@ fn check_well_formed(svg: &str) -> Vec<String> {
         let tag = &rest[start + 1..end];
         assert!(!tag.contains('<'), "'<' inside a tag: {tag}");
         if let Some(name) = tag.strip_prefix('/') {
-            let open = stack
-                .pop()
-                .unwrap_or_else(|| panic!("</{name}> without opening tag"));
+            let open = stack.pop().unwrap_or_else(|| panic!("</{name}> without opening tag"));
             assert_eq!(open, name.trim(), "mismatched tags");
         } else {
-            let name = tag
-                .split_whitespace()
-                .next()
-                .unwrap_or("")
-                .trim_end_matches('/');
+            let name = tag.split_whitespace().next().unwrap_or("").trim_end_matches('/');
             seen.push(name.to_string());
             if !tag.ends_with('/') {
                 stack.push(name.to_string());
             }
         }
         // Text between tags holds no raw '>' or unescaped '&'.
-        let next = rest[end + 1..]
-            .find('<')
-            .map_or(rest.len(), |n| n + end + 1);
+        let next = rest[end + 1..].find('<').map_or(rest.len(), |n| n + end + 1);
         let text = &rest[end + 1..next];
         assert!(!text.contains('>'), "raw '>' in text {text:?}");
         for (k, _) in text.match_indices('&') {
             let entity = &text[k..];
             assert!(
-                ["&amp;", "&lt;", "&gt;", "&quot;", "&apos;"]
-                    .iter()
-                    .any(|e| entity.starts_with(e)),
+                ["&amp;", "&lt;", "&gt;", "&quot;", "&apos;"].iter().any(|e| entity.starts_with(e)),
                 "unescaped & in {text:?}"
             );
         }
@@ -98,11 +78,7 @@ fn chain_loops(segments: &[[(f64, f64); 2]]) -> Vec<Vec<(f64, f64)>> {
     let key = |p: (f64, f64)| (p.0.to_bits(), p.1.to_bits());
     let mut by_start: HashMap<(u64, u64), usize> = HashMap::new();
     for (k, s) in segments.iter().enumerate() {
-        assert!(
-            by_start.insert(key(s[0]), k).is_none(),
-            "two segments start at {:?}",
-            s[0]
-        );
+        assert!(by_start.insert(key(s[0]), k).is_none(), "two segments start at {:?}", s[0]);
     }
     let mut used = vec![false; segments.len()];
     let mut loops = Vec::new();
@@ -115,9 +91,7 @@ fn chain_loops(segments: &[[(f64, f64); 2]]) -> Vec<Vec<(f64, f64)>> {
         while !used[k] {
             used[k] = true;
             points.push(segments[k][0]);
-            k = *by_start
-                .get(&key(segments[k][1]))
-                .expect("open contour: no segment continues");
+            k = *by_start.get(&key(segments[k][1])).expect("open contour: no segment continues");
         }
         assert_eq!(k, first, "chain joins another loop midway");
         loops.push(points);
@@ -153,31 +127,17 @@ fn reference_dir() -> PathBuf {
 fn svg_is_well_formed_and_carries_its_labels() {
     let t: Vec<f64> = (0..60).map(|k| 0.1 * k as f64).collect();
     let d: Vec<f64> = t.iter().map(|t| 0.38 * (1.0 - (-1.5 * t).exp())).collect();
-    let mut fig = Figure::new("Capsule <in> shear & more")
-        .x_label("γ̇t")
-        .y_label("Taylor D")
-        .size(700.0, 500.0);
+    let mut fig =
+        Figure::new("Capsule <in> shear & more").x_label("γ̇t").y_label("Taylor D").size(700.0, 500.0);
     fig.line(&t, &d, "N = 32");
-    fig.line(&t, &d.iter().map(|d| 0.9 * d).collect::<Vec<_>>(), "N = 16")
-        .style(LineStyle::Dashed);
-    fig.markers(
-        &[1.0, 2.0, 4.0],
-        &[0.3, 0.35, 0.38],
-        "Ramanujan & Pozrikidis",
-    )
-    .filled(false)
-    .marker(Marker::Triangle);
-    fig.segments(vec![[(0.0, 0.1), (1.0, 0.1)]], "")
-        .color(Color::GREY);
+    fig.line(&t, &d.iter().map(|d| 0.9 * d).collect::<Vec<_>>(), "N = 16").style(LineStyle::Dashed);
+    fig.markers(&[1.0, 2.0, 4.0], &[0.3, 0.35, 0.38], "Ramanujan & Pozrikidis")
+        .filled(false)
+        .marker(Marker::Triangle);
+    fig.segments(vec![[(0.0, 0.1), (1.0, 0.1)]], "").color(Color::GREY);
     let svg = fig.to_svg();
     let tags = check_well_formed(&svg);
-    for label in [
-        "Capsule &lt;in&gt; shear &amp; more",
-        "γ̇t",
-        "Taylor D",
-        "N = 32",
-        "N = 16",
-    ] {
+    for label in ["Capsule &lt;in&gt; shear &amp; more", "γ̇t", "Taylor D", "N = 32", "N = 16"] {
         assert!(svg.contains(label), "missing {label}");
     }
     assert!(svg.contains("Ramanujan &amp; Pozrikidis"));
@@ -186,26 +146,16 @@ fn svg_is_well_formed_and_carries_its_labels() {
     assert!(svg.contains("clip-path"));
     // Two palette colours for the first two series, the override for the segments.
     assert!(svg.contains("#0072b2") && svg.contains("#d55e00") && svg.contains("#888888"));
-    assert!(
-        tags.iter().filter(|t| *t == "text").count() > 10,
-        "tick labels missing"
-    );
+    assert!(tags.iter().filter(|t| *t == "text").count() > 10, "tick labels missing");
     // Linear x ticks 0..6 over t in [0, 5.9]: labels 0, 1, ..., 5 (or a subset).
     assert!(svg.contains(">0</text>") && svg.contains(">4</text>"));
 }
 
 #[test]
 fn log_ticks_are_decades_or_one_two_five() {
-    assert_eq!(
-        log_ticks(1e-3, 1e2, 10),
-        vec![1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0]
-    );
+    assert_eq!(log_ticks(1e-3, 1e2, 10), vec![1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0]);
     assert_eq!(log_ticks(2e-3, 3e2, 10), vec![1e-2, 1e-1, 1.0, 10.0, 100.0]);
-    assert_eq!(
-        log_ticks(1e2, 1e-3, 10),
-        log_ticks(1e-3, 1e2, 10),
-        "order of bounds"
-    );
+    assert_eq!(log_ticks(1e2, 1e-3, 10), log_ticks(1e-3, 1e2, 10), "order of bounds");
     // Too many decades for the budget: every third.
     assert_eq!(log_ticks(1e-12, 1.0, 5), vec![1e-12, 1e-9, 1e-6, 1e-3, 1.0]);
     // Less than two decades: 1-2-5.
@@ -216,22 +166,10 @@ fn log_ticks_are_decades_or_one_two_five() {
     // Nothing sensible to tick.
     assert!(log_ticks(-1.0, 10.0, 5).is_empty());
     assert!(log_ticks(f64::NAN, 10.0, 5).is_empty());
-    for (lo, hi, max) in [
-        (1e-9, 1e9, 6),
-        (0.5, 7e7, 4),
-        (1e-300, 1e300, 8),
-        (7.0, 7.5, 5),
-    ] {
+    for (lo, hi, max) in [(1e-9, 1e9, 6), (0.5, 7e7, 4), (1e-300, 1e300, 8), (7.0, 7.5, 5)] {
         let ticks = log_ticks(lo, hi, max);
-        assert!(
-            !ticks.is_empty() && ticks.len() <= max,
-            "{lo}..{hi}: {ticks:?}"
-        );
-        assert!(
-            ticks
-                .iter()
-                .all(|&t| t >= lo * (1.0 - 1e-9) && t <= hi * (1.0 + 1e-9))
-        );
+        assert!(!ticks.is_empty() && ticks.len() <= max, "{lo}..{hi}: {ticks:?}");
+        assert!(ticks.iter().all(|&t| t >= lo * (1.0 - 1e-9) && t <= hi * (1.0 + 1e-9)));
         assert!(ticks.windows(2).all(|w| w[0] < w[1]));
     }
 }
@@ -240,11 +178,8 @@ fn log_ticks_are_decades_or_one_two_five() {
 fn log_axes_render_decade_labels() {
     let n = [8.0, 16.0, 32.0, 64.0, 128.0, 256.0];
     let err: Vec<f64> = n.iter().map(|n: &f64| 5.0 / n.powi(2)).collect();
-    let mut fig = Figure::new("convergence")
-        .x_scale(Scale::Log10)
-        .y_scale(Scale::Log10)
-        .x_label("N")
-        .y_label("error");
+    let mut fig =
+        Figure::new("convergence").x_scale(Scale::Log10).y_scale(Scale::Log10).x_label("N").y_label("error");
     fig.line_markers(&n, &err, "phi");
     let svg = fig.to_svg();
     check_well_formed(&svg);
@@ -258,37 +193,22 @@ fn log_axes_render_decade_labels() {
 
 #[test]
 fn linear_ticks_are_nice_and_inside() {
-    assert_eq!(
-        linear_ticks(0.0, 10.0, 6),
-        vec![0.0, 2.0, 4.0, 6.0, 8.0, 10.0]
-    );
+    assert_eq!(linear_ticks(0.0, 10.0, 6), vec![0.0, 2.0, 4.0, 6.0, 8.0, 10.0]);
     assert_eq!(linear_ticks(-1.0, 1.0, 5), vec![-1.0, -0.5, 0.0, 0.5, 1.0]);
     assert_eq!(linear_ticks(2.0, 2.0, 5), vec![2.0]);
     assert!(linear_ticks(0.0, f64::INFINITY, 5).is_empty());
-    for (lo, hi, max) in [
-        (0.013, 0.0171, 5),
-        (-3e7, 4.2e8, 7),
-        (1.0, 1.0 + 1e-12, 4),
-        (-0.5, 1e-3, 2),
-        (5.0, -5.0, 9),
-    ] {
+    for (lo, hi, max) in
+        [(0.013, 0.0171, 5), (-3e7, 4.2e8, 7), (1.0, 1.0 + 1e-12, 4), (-0.5, 1e-3, 2), (5.0, -5.0, 9)]
+    {
         let ticks = linear_ticks(lo, hi, max);
         let (lo, hi) = (lo.min(hi), lo.max(hi));
-        assert!(
-            ticks.len() >= 2 && ticks.len() <= max.max(2),
-            "{lo}..{hi}: {ticks:?}"
-        );
+        assert!(ticks.len() >= 2 && ticks.len() <= max.max(2), "{lo}..{hi}: {ticks:?}");
         let tol = 1e-9 * (hi - lo);
-        assert!(
-            ticks.iter().all(|&t| t >= lo - tol && t <= hi + tol),
-            "{ticks:?}"
-        );
+        assert!(ticks.iter().all(|&t| t >= lo - tol && t <= hi + tol), "{ticks:?}");
         let step = ticks[1] - ticks[0];
         let mantissa = step / 10f64.powf(step.log10().floor());
         assert!(
-            [1.0, 2.0, 5.0, 10.0]
-                .iter()
-                .any(|m| (mantissa - m).abs() < 1e-3),
+            [1.0, 2.0, 5.0, 10.0].iter().any(|m| (mantissa - m).abs() < 1e-3),
             "step {step} is not 1-2-5"
         );
     }
@@ -332,17 +252,13 @@ fn degenerate_data_gives_a_figure_not_a_panic() {
             f
         },
         {
-            let mut f = Figure::new("bad ranges")
-                .x_range(nan, 1.0)
-                .y_range(5.0, 5.0);
+            let mut f = Figure::new("bad ranges").x_range(nan, 1.0).y_range(5.0, 5.0);
             f.line(&[0.0, 1.0, 2.0], &[1.0, 2.0], "short ys");
             f
         },
         {
             let mut f = Figure::new("extremes").size(nan, -5.0);
-            f.line(&[-1e308, 1e308], &[f64::MIN_POSITIVE, 1e-320], "huge")
-                .width(-1.0)
-                .marker_size(nan);
+            f.line(&[-1e308, 1e308], &[f64::MIN_POSITIVE, 1e-320], "huge").width(-1.0).marker_size(nan);
             f
         },
         {
@@ -352,11 +268,7 @@ fn degenerate_data_gives_a_figure_not_a_panic() {
         },
         {
             let mut f = Figure::new("a gap breaks the line").legend(Legend::TopLeft);
-            f.line(
-                &[0.0, 1.0, 2.0, 3.0, 4.0],
-                &[0.0, 1.0, nan, 3.0, 4.0],
-                "gap",
-            );
+            f.line(&[0.0, 1.0, 2.0, 3.0, 4.0], &[0.0, 1.0, nan, 3.0, 4.0], "gap");
             f
         },
     ];
@@ -367,10 +279,7 @@ fn degenerate_data_gives_a_figure_not_a_panic() {
     }
     // A NaN splits the line into two runs: two "M" commands in its path.
     let svg = cases.last().unwrap().to_svg();
-    let path = svg
-        .lines()
-        .find(|l| l.contains("stroke=\"#0072b2\""))
-        .unwrap();
+    let path = svg.lines().find(|l| l.contains("stroke=\"#0072b2\"")).unwrap();
     assert_eq!(path.matches('M').count(), 2, "{path}");
 }
 
@@ -378,30 +287,20 @@ fn degenerate_data_gives_a_figure_not_a_panic() {
 fn equal_aspect_keeps_circles_round() {
     let t: Vec<f64> = (0..=64).map(|k| 2.0 * PI * k as f64 / 64.0).collect();
     let (x, y): (Vec<f64>, Vec<f64>) = t.iter().map(|t| (3.0 * t.cos(), t.sin())).unzip();
-    let mut fig = Figure::new("")
-        .size(600.0, 300.0)
-        .equal_aspect(true)
-        .legend(Legend::Hidden);
+    let mut fig = Figure::new("").size(600.0, 300.0).equal_aspect(true).legend(Legend::Hidden);
     fig.line(&x, &y, "");
     let svg = fig.to_svg();
     check_well_formed(&svg);
     // Pixel extents of the ellipse: width / height = 3.
-    let d = svg
-        .lines()
-        .find(|l| l.starts_with("<path d=\"M") && l.contains("#0072b2"))
-        .unwrap();
+    let d = svg.lines().find(|l| l.starts_with("<path d=\"M") && l.contains("#0072b2")).unwrap();
     let d = &d[d.find("d=\"").unwrap() + 3..];
     let d = &d[..d.find('"').unwrap()];
-    let nums: Vec<f64> = d
-        .split(['M', 'L', ' '])
-        .filter(|s| !s.is_empty())
-        .map(|s| s.parse().unwrap())
-        .collect();
+    let nums: Vec<f64> =
+        d.split(['M', 'L', ' ']).filter(|s| !s.is_empty()).map(|s| s.parse().unwrap()).collect();
     let xs: Vec<f64> = nums.iter().step_by(2).copied().collect();
     let ys: Vec<f64> = nums.iter().skip(1).step_by(2).copied().collect();
-    let extent = |v: &[f64]| {
-        v.iter().fold(f64::MIN, |m, &a| m.max(a)) - v.iter().fold(f64::MAX, |m, &a| m.min(a))
-    };
+    let extent =
+        |v: &[f64]| v.iter().fold(f64::MIN, |m, &a| m.max(a)) - v.iter().fold(f64::MAX, |m, &a| m.min(a));
     let ratio = extent(&xs) / extent(&ys);
     assert!((ratio - 3.0).abs() < 0.02, "aspect ratio {ratio}");
 }
@@ -460,10 +359,7 @@ fn circle_contour_lies_on_the_circle_and_closes() {
     assert_eq!(loops.len(), 1, "one closed loop");
     // Values above the level (inside) on the left: counter-clockwise, area ~ pi r^2.
     let area = shoelace(&loops[0]);
-    assert!(
-        (area - PI * r0 * r0).abs() < 2e-3 * PI * r0 * r0,
-        "area {area}"
-    );
+    assert!((area - PI * r0 * r0).abs() < 2e-3 * PI * r0 * r0, "area {area}");
     // The complementary field runs the other way.
     let minus: Vec<f64> = v.iter().map(|v| -v).collect();
     let loops = chain_loops(&contour_segments(n, n, -1.0, -1.0, h, h, &minus, 0.0));
@@ -505,10 +401,7 @@ fn saddle_follows_the_asymptotic_decider() {
         })
     };
     assert!(cuts((1.0, 0.0)) && cuts((0.0, 1.0)));
-    assert!(
-        segs.iter()
-            .any(|[a, b]| near(*a, (0.6, 0.0)) && near(*b, (1.0, 0.4)))
-    );
+    assert!(segs.iter().any(|[a, b]| near(*a, (0.6, 0.0)) && near(*b, (1.0, 0.4))));
     // With level 0.6 (saddle value below) they separate: the corners above are cut off.
     let segs = contour_segments(2, 2, 0.0, 0.0, 1.0, 1.0, &values, 0.6);
     assert_eq!(segs.len(), 2);
@@ -529,10 +422,7 @@ fn contour_of_bad_input_is_empty_or_partial() {
     assert!(contour_segments(3, 3, 0.0, 0.0, 1.0, 1.0, &[1.0; 9], f64::NAN).is_empty());
     // Short slice: only complete rows are used.
     let values = [0.0, 1.0, 0.0, 1.0, 0.0];
-    assert_eq!(
-        contour_segments(2, 3, 0.0, 0.0, 1.0, 1.0, &values, 0.5).len(),
-        1
-    );
+    assert_eq!(contour_segments(2, 3, 0.0, 0.0, 1.0, 1.0, &values, 0.5).len(), 1);
     // A NaN corner skips its cells only.
     let mut v = vec![0.0; 16];
     v[5] = 1.0;
@@ -565,23 +455,14 @@ fn csv_round_trip_is_exact() {
     for (k, &x) in tricky.iter().enumerate() {
         csv.row(&[k as f64, x, x * x]).unwrap();
     }
-    assert!(matches!(
-        csv.row(&[1.0, 2.0]),
-        Err(Error::InvalidParameter { .. })
-    ));
+    assert!(matches!(csv.row(&[1.0, 2.0]), Err(Error::InvalidParameter { .. })));
     csv.finish().unwrap();
     let table = read_columns(&path).unwrap();
     assert_eq!(table.names, ["k", "value", "square"]);
     assert_eq!(table.rows(), tricky.len());
     for (k, &x) in tricky.iter().enumerate() {
-        let (got, sq) = (
-            table.column("value").unwrap()[k],
-            table.column("square").unwrap()[k],
-        );
-        assert!(
-            got.to_bits() == x.to_bits() || (got.is_nan() && x.is_nan()),
-            "{x} -> {got}"
-        );
+        let (got, sq) = (table.column("value").unwrap()[k], table.column("square").unwrap()[k]);
+        assert!(got.to_bits() == x.to_bits() || (got.is_nan() && x.is_nan()), "{x} -> {got}");
         let want = x * x;
         assert!(sq.to_bits() == want.to_bits() || (sq.is_nan() && want.is_nan()));
     }
@@ -592,10 +473,7 @@ fn csv_round_trip_is_exact() {
     let x = [0.0, 0.5, 1.0];
     let y = [1.0, 0.25, 0.0];
     write_columns(&cols, &[("x", &x), ("y", &y)]).unwrap();
-    assert_eq!(
-        std::fs::read_to_string(&cols).unwrap(),
-        "x,y\n0,1\n0.5,0.25\n1,0\n"
-    );
+    assert_eq!(std::fs::read_to_string(&cols).unwrap(), "x,y\n0,1\n0.5,0.25\n1,0\n");
     assert!(write_columns(&cols, &[("x", &x), ("y", &y[..2])]).is_err());
     assert!(write_columns(&cols, &[]).is_err());
     assert!(CsvWriter::create(&cols, &["a,b"]).is_err());
@@ -605,24 +483,14 @@ fn csv_round_trip_is_exact() {
 fn read_xy_skips_comments_and_names_bad_lines() {
     let path = scratch("csv/xy.csv");
     std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    std::fs::write(
-        &path,
-        "# digitised\n\n1, 2\r\n 3.5 ,4e-3\n  # indented comment\n-1,0\n",
-    )
-    .unwrap();
-    assert_eq!(
-        read_xy(&path).unwrap(),
-        vec![(1.0, 2.0), (3.5, 4e-3), (-1.0, 0.0)]
-    );
+    std::fs::write(&path, "# digitised\n\n1, 2\r\n 3.5 ,4e-3\n  # indented comment\n-1,0\n").unwrap();
+    assert_eq!(read_xy(&path).unwrap(), vec![(1.0, 2.0), (3.5, 4e-3), (-1.0, 0.0)]);
 
     std::fs::write(&path, "1, 2\n3, four\n").unwrap();
     match read_xy(&path) {
         Err(Error::Io { path: p, message }) => {
             assert!(p.ends_with("xy.csv"), "{p}");
-            assert!(
-                message.contains("line 2") && message.contains("four"),
-                "{message}"
-            );
+            assert!(message.contains("line 2") && message.contains("four"), "{message}");
         }
         other => panic!("expected Error::Io, got {other:?}"),
     }
@@ -645,11 +513,7 @@ fn reads_published_reference_curve() {
     // Late-time D about 0.384 (reference README).
     let late = points.last().unwrap().1;
     assert!((late - 0.384).abs() < 0.02, "late D = {late}");
-    assert!(
-        points
-            .iter()
-            .all(|&(t, d)| t >= 0.0 && (0.0..0.6).contains(&d))
-    );
+    assert!(points.iter().all(|&(t, d)| t >= 0.0 && (0.0..0.6).contains(&d)));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -671,26 +535,12 @@ fn example_figures_are_written() {
         let (t, d): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
         let late = *d.last().unwrap();
         let model: Vec<f64> = t.iter().map(|t| late * (1.0 - (-1.2 * t).exp())).collect();
-        shear
-            .markers(&t, &d, &format!("Ramanujan & Pozrikidis, Ca = {ca}"))
-            .filled(false);
-        let style = [
-            LineStyle::Solid,
-            LineStyle::Dashed,
-            LineStyle::Dotted,
-            LineStyle::DashDot,
-        ];
-        shear
-            .line(&t, &model, "")
-            .style(style[k])
-            .color(Color::GREY)
-            .width(1.25);
+        shear.markers(&t, &d, &format!("Ramanujan & Pozrikidis, Ca = {ca}")).filled(false);
+        let style = [LineStyle::Solid, LineStyle::Dashed, LineStyle::Dotted, LineStyle::DashDot];
+        shear.line(&t, &model, "").style(style[k]).color(Color::GREY).width(1.25);
     }
     let n = [16.0, 32.0, 64.0, 128.0, 256.0];
-    let e1: Vec<f64> = n
-        .iter()
-        .map(|n: &f64| 2.0 / n.powi(2) * (1.0 + 3.0 / n))
-        .collect();
+    let e1: Vec<f64> = n.iter().map(|n: &f64| 2.0 / n.powi(2) * (1.0 + 3.0 / n)).collect();
     let e2: Vec<f64> = n.iter().map(|n: &f64| 0.5 / n).collect();
     let slope2: Vec<f64> = n.iter().map(|n: &f64| 1.0 / n.powi(2)).collect();
     let mut conv = Figure::new("Resolution study")
@@ -700,16 +550,11 @@ fn example_figures_are_written() {
         .y_scale(Scale::Log10);
     conv.line_markers(&n, &e1, "volume");
     conv.line_markers(&n, &e2, "curvature");
-    conv.line(&n, &slope2, "N⁻²")
-        .style(LineStyle::Dashed)
-        .color(Color::BLACK)
-        .width(1.0);
+    conv.line(&n, &slope2, "N⁻²").style(LineStyle::Dashed).color(Color::BLACK).width(1.0);
 
     let m = 121;
     let h = 2.0 / (m - 1) as f64;
-    let mut shape = Figure::new("Capsule outline, φ = 0.5")
-        .x_label("x / a")
-        .y_label("y / a");
+    let mut shape = Figure::new("Capsule outline, φ = 0.5").x_label("x / a").y_label("y / a");
     shape = shape.equal_aspect(true);
     let mut field = vec![0.0; m * m];
     for (level, label) in [(0.0_f64, "t = 0"), (0.35, "t = 2")] {
@@ -730,9 +575,7 @@ fn example_figures_are_written() {
     conv.save(out.join("convergence.svg")).unwrap();
     shape.save(out.join("shape.svg")).unwrap();
     let mut panels = Panels::new(3);
-    panels
-        .push(shear.size(480.0, 400.0))
-        .push(conv.size(420.0, 400.0));
+    panels.push(shear.size(480.0, 400.0)).push(conv.size(420.0, 400.0));
     panels.push(shape.size(400.0, 400.0));
     panels.save(out.join("panels.svg")).unwrap();
     for name in ["shear.svg", "convergence.svg", "shape.svg", "panels.svg"] {

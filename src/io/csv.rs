@@ -210,9 +210,7 @@ impl CsvWriter {
     }
 
     fn write_line(&mut self) -> Result<()> {
-        self.out
-            .write_all(self.line.as_bytes())
-            .map_err(|e| io_error(&self.path, e))
+        self.out.write_all(self.line.as_bytes()).map_err(|e| io_error(&self.path, e))
     }
 }
 
@@ -234,20 +232,12 @@ impl CsvWriter {
 /// ```
 pub fn write_columns(path: impl AsRef<Path>, columns: &[(&str, &[f64])]) -> Result<()> {
     let Some(&(first_name, first)) = columns.first() else {
-        return Err(Error::invalid(
-            "columns",
-            "[]",
-            "at least one (name, values) column",
-        ));
+        return Err(Error::invalid("columns", "[]", "at least one (name, values) column"));
     };
     if let Some(&(name, values)) = columns.iter().find(|(_, v)| v.len() != first.len()) {
         return Err(Error::invalid(
             "columns",
-            format!(
-                "`{name}` has {} values but `{first_name}` has {}",
-                values.len(),
-                first.len()
-            ),
+            format!("`{name}` has {} values but `{first_name}` has {}", values.len(), first.len()),
             "columns of equal length",
         ));
     }
@@ -338,11 +328,7 @@ pub fn read_columns(path: impl AsRef<Path>) -> Result<Table> {
             return Err(line_error(
                 path,
                 number,
-                format!(
-                    "{} fields, but the header has {}",
-                    fields.len(),
-                    table.names.len()
-                ),
+                format!("{} fields, but the header has {}", fields.len(), table.names.len()),
             ));
         }
         for (column, &v) in table.columns.iter_mut().zip(&fields) {

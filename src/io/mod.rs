@@ -18,10 +18,7 @@ use std::path::Path;
 
 /// An [`Error::Io`] naming `path`, with `message`.
 pub(crate) fn io_error(path: &Path, message: impl std::fmt::Display) -> Error {
-    Error::Io {
-        path: path.display().to_string(),
-        message: message.to_string(),
-    }
+    Error::Io { path: path.display().to_string(), message: message.to_string() }
 }
 
 /// Creates the parent directories of `path` if they do not exist.

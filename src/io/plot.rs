@@ -169,13 +169,8 @@ pub enum Marker {
     TriangleDown,
 }
 
-const AUTO_MARKERS: [Marker; 5] = [
-    Marker::Circle,
-    Marker::Square,
-    Marker::Triangle,
-    Marker::Diamond,
-    Marker::TriangleDown,
-];
+const AUTO_MARKERS: [Marker; 5] =
+    [Marker::Circle, Marker::Square, Marker::Triangle, Marker::Diamond, Marker::TriangleDown];
 
 /// Where the legend goes.
 ///
@@ -339,10 +334,7 @@ impl Series {
 
     /// Point pairs and segment endpoints, for the range and the legend placement.
     fn all_points(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
-        self.points
-            .iter()
-            .copied()
-            .chain(self.segments.iter().flat_map(|s| s.iter().copied()))
+        self.points.iter().copied().chain(self.segments.iter().flat_map(|s| s.iter().copied()))
     }
 }
 
@@ -426,11 +418,7 @@ impl Figure {
     /// ```
     pub fn size(mut self, width: f64, height: f64) -> Self {
         let clamp = |v: f64, default: f64| {
-            if v.is_finite() {
-                v.clamp(120.0, 1e4)
-            } else {
-                default
-            }
+            if v.is_finite() { v.clamp(120.0, 1e4) } else { default }
         };
         self.width = clamp(width, self.width).round();
         self.height = clamp(height, self.height).round();
@@ -592,11 +580,7 @@ impl Figure {
     /// let mut fig = Figure::new("").equal_aspect(true);
     /// fig.segments(vec![[(0.0, 0.0), (1.0, 0.0)], [(0.0, 1.0), (1.0, 1.0)]], "two strokes");
     /// ```
-    pub fn segments(
-        &mut self,
-        segments: impl Into<Vec<[(f64, f64); 2]>>,
-        label: &str,
-    ) -> &mut Series {
+    pub fn segments(&mut self, segments: impl Into<Vec<[(f64, f64); 2]>>, label: &str) -> &mut Series {
         let mut series = Series::new(label, Vec::new(), true, false);
         series.segments = segments.into();
         self.push(series)
@@ -690,10 +674,7 @@ impl Panels {
     /// assert!(panels.to_svg().starts_with("<svg"));
     /// ```
     pub fn new(columns: usize) -> Self {
-        Panels {
-            columns: columns.max(1),
-            figures: Vec::new(),
-        }
+        Panels { columns: columns.max(1), figures: Vec::new() }
     }
 
     /// Appends a figure.
@@ -739,11 +720,8 @@ impl Panels {
         for (k, fig) in self.figures.iter().enumerate() {
             let x: f64 = col_w[..k % cols].iter().sum();
             let y: f64 = row_h[..k / cols].iter().sum();
-            let _ = writeln!(
-                out,
-                "<svg x=\"{x}\" y=\"{y}\" width=\"{}\" height=\"{}\">",
-                fig.width, fig.height
-            );
+            let _ =
+                writeln!(out, "<svg x=\"{x}\" y=\"{y}\" width=\"{}\" height=\"{}\">", fig.width, fig.height);
             fig.render(&mut out, &format!("p{k}"));
             out.push_str("</svg>\n");
         }
@@ -894,16 +872,11 @@ fn log_ticks_kind(lo: f64, hi: f64, max_ticks: usize) -> (Vec<f64>, LogTicks) {
                 break;
             }
         }
-        let ticks = (kmin..=kmax)
-            .filter(|k| k.rem_euclid(step) == 0)
-            .map(|k| pow10(1, k));
+        let ticks = (kmin..=kmax).filter(|k| k.rem_euclid(step) == 0).map(|k| pow10(1, k));
         return (ticks.collect(), LogTicks::Decades(step));
     }
     let (ticks, step) = linear_ticks_step(lo, hi, max);
-    (
-        ticks.into_iter().filter(|&v| v > 0.0).collect(),
-        LogTicks::Linear(step),
-    )
+    (ticks.into_iter().filter(|&v| v > 0.0).collect(), LogTicks::Linear(step))
 }
 
 /// Unlabelled ticks of a log axis: `m x 10^k` for m = 2..9 (and 1 when not labelled).
@@ -937,10 +910,7 @@ struct Label {
 
 impl Label {
     fn plain(s: String) -> Self {
-        Label {
-            mantissa: s,
-            exp: None,
-        }
+        Label { mantissa: s, exp: None }
     }
 
     /// Estimated width in pixels at font size `fs`.
@@ -1016,10 +986,7 @@ fn scientific(v: f64, resolution: f64) -> Label {
     if s.contains('.') {
         s = s.trim_end_matches('0').trim_end_matches('.').to_string();
     }
-    Label {
-        mantissa: minus(&s),
-        exp: Some(e),
-    }
+    Label { mantissa: minus(&s), exp: Some(e) }
 }
 
 fn linear_labels(ticks: &[f64], step: f64) -> Vec<Label> {
@@ -1028,10 +995,7 @@ fn linear_labels(ticks: &[f64], step: f64) -> Vec<Label> {
     if max_abs >= 1e5 || (max_abs > 0.0 && max_abs < 1e-3) {
         ticks.iter().map(|&t| scientific(t, step)).collect()
     } else {
-        ticks
-            .iter()
-            .map(|&t| Label::plain(fixed(t, decimals_for(step))))
-            .collect()
+        ticks.iter().map(|&t| Label::plain(fixed(t, decimals_for(step)))).collect()
     }
 }
 
@@ -1039,10 +1003,7 @@ fn log_labels(ticks: &[f64], kind: LogTicks) -> Vec<Label> {
     match kind {
         LogTicks::Decades(_) => ticks
             .iter()
-            .map(|t| Label {
-                mantissa: String::new(),
-                exp: Some(t.log10().round() as i32),
-            })
+            .map(|t| Label { mantissa: String::new(), exp: Some(t.log10().round() as i32) })
             .collect(),
         LogTicks::OneTwoFive => ticks
             .iter()
@@ -1083,11 +1044,7 @@ struct P(f64);
 
 impl fmt::Display for P {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let v = if self.0.is_finite() {
-            self.0.clamp(-PX_LIMIT, PX_LIMIT)
-        } else {
-            0.0
-        };
+        let v = if self.0.is_finite() { self.0.clamp(-PX_LIMIT, PX_LIMIT) } else { 0.0 };
         let r = (v * 100.0).round() / 100.0;
         write!(f, "{}", if r == 0.0 { 0.0 } else { r })
     }
@@ -1135,9 +1092,7 @@ impl AxisLayout {
     }
 
     fn max_label_width(&self) -> f64 {
-        self.ticks
-            .iter()
-            .fold(0.0, |m, (_, l)| m.max(l.width(FS_TICK)))
+        self.ticks.iter().fold(0.0, |m, (_, l)| m.max(l.width(FS_TICK)))
     }
 }
 
@@ -1197,19 +1152,12 @@ fn axis_layout(scale: Scale, (lo, hi): (f64, f64), len: f64, horizontal: bool) -
                 let labels = log_labels(&v, kind);
                 let minor = log_minor_ticks(a, b, kind, &v);
                 let t = |v: &f64| v.log10();
-                (
-                    v.iter().map(t).collect(),
-                    labels,
-                    minor.iter().map(t).collect(),
-                )
+                (v.iter().map(t).collect(), labels, minor.iter().map(t).collect())
             }
         };
         let eps = 1e-9 * (hi - lo);
-        let ticks: Vec<(f64, Label)> = values
-            .into_iter()
-            .zip(labels)
-            .filter(|(t, _)| *t >= lo - eps && *t <= hi + eps)
-            .collect();
+        let ticks: Vec<(f64, Label)> =
+            values.into_iter().zip(labels).filter(|(t, _)| *t >= lo - eps && *t <= hi + eps).collect();
         // Fewer ticks when labels would touch.
         let crowded = ticks.windows(2).any(|w| {
             let gap = (w[1].0 - w[0].0).abs() / (hi - lo) * len;
@@ -1224,12 +1172,7 @@ fn axis_layout(scale: Scale, (lo, hi): (f64, f64), len: f64, horizontal: bool) -
             max -= 1;
             continue;
         }
-        return AxisLayout {
-            lo,
-            hi,
-            ticks,
-            minor,
-        };
+        return AxisLayout { lo, hi, ticks, minor };
     }
 }
 
@@ -1274,22 +1217,10 @@ impl Figure {
 
     fn layout(&self) -> Layout {
         let (w, h) = (self.width, self.height);
-        let top = if self.title.is_empty() {
-            14.0
-        } else {
-            14.0 + FS_TITLE + 12.0
-        };
-        let x_label_h = if self.x.label.is_empty() {
-            0.0
-        } else {
-            FS_LABEL + 8.0
-        };
+        let top = if self.title.is_empty() { 14.0 } else { 14.0 + FS_TITLE + 12.0 };
+        let x_label_h = if self.x.label.is_empty() { 0.0 } else { FS_LABEL + 8.0 };
         let bottom = TICK_LEN + 4.0 + FS_TICK + x_label_h + MARGIN;
-        let y_label_w = if self.y.label.is_empty() {
-            0.0
-        } else {
-            FS_LABEL + 8.0
-        };
+        let y_label_w = if self.y.label.is_empty() { 0.0 } else { FS_LABEL + 8.0 };
         let [data_x, data_y] = self.data_ranges();
         let (mut left, mut right) = (50.0_f64, 20.0_f64);
         let mut tries = 0;
@@ -1309,9 +1240,7 @@ impl Figure {
             }
             let x = axis_layout(self.x.scale, xr, pw, true);
             let y = axis_layout(self.y.scale, yr, ph, false);
-            let need_left = (MARGIN + y_label_w + y.max_label_width() + 4.0 + TICK_LEN)
-                .ceil()
-                .max(30.0);
+            let need_left = (MARGIN + y_label_w + y.max_label_width() + 4.0 + TICK_LEN).ceil().max(30.0);
             let last_half = x
                 .ticks
                 .last()
@@ -1320,16 +1249,7 @@ impl Figure {
             let need_right = (last_half + 6.0).max(20.0).ceil();
             tries += 1;
             if (need_left == left && need_right == right) || tries == 4 {
-                return Layout {
-                    left,
-                    top,
-                    pw,
-                    ph,
-                    x,
-                    y,
-                    xs: self.x.scale,
-                    ys: self.y.scale,
-                };
+                return Layout { left, top, pw, ph, x, y, xs: self.x.scale, ys: self.y.scale };
             }
             left = need_left;
             right = need_right;
@@ -1393,10 +1313,7 @@ impl Figure {
                 let _ = write!(d, "M{} {}H{}", P(x0), P(ypx(*t)), P(x1));
             }
             if !d.is_empty() {
-                let _ = writeln!(
-                    out,
-                    "<path d=\"{d}\" fill=\"none\" stroke=\"{GRID}\" stroke-width=\"1\"/>"
-                );
+                let _ = writeln!(out, "<path d=\"{d}\" fill=\"none\" stroke=\"{GRID}\" stroke-width=\"1\"/>");
             }
         }
 
@@ -1467,22 +1384,14 @@ impl Figure {
             let _ = write!(d, "M{} {}h{}", P(x0), P(ypx(t)), -0.6 * TICK_LEN);
         }
         if !d.is_empty() {
-            let _ = writeln!(
-                out,
-                "<path d=\"{d}\" stroke=\"{AXIS}\" stroke-width=\"1\"/>"
-            );
+            let _ = writeln!(out, "<path d=\"{d}\" stroke=\"{AXIS}\" stroke-width=\"1\"/>");
         }
 
         // Tick labels.
         let _ = writeln!(out, "<g font-size=\"{FS_TICK}\" fill=\"{TEXT}\">");
         let x_base = y1 + TICK_LEN + 3.0 + 0.8 * FS_TICK;
         for (t, label) in &lay.x.ticks {
-            let _ = write!(
-                out,
-                "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">",
-                P(xpx(*t)),
-                P(x_base)
-            );
+            let _ = write!(out, "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">", P(xpx(*t)), P(x_base));
             label.write(out, FS_TICK);
             out.push_str("</text>\n");
         }
@@ -1554,9 +1463,7 @@ impl Figure {
         const ROW: f64 = 18.0;
         const SAMPLE: f64 = 28.0;
         const PAD: f64 = 8.0;
-        let text_w = entries
-            .iter()
-            .fold(0.0_f64, |m, e| m.max(text_width(&e.0.label, FS_LEGEND)));
+        let text_w = entries.iter().fold(0.0_f64, |m, e| m.max(text_width(&e.0.label, FS_LEGEND)));
         let bw = (PAD + SAMPLE + 6.0 + text_w + PAD).min(lay.pw.max(40.0));
         let bh = 6.0 + ROW * entries.len() as f64 + 2.0;
         let inset = 8.0;
@@ -1574,22 +1481,14 @@ impl Figure {
         let (bx, by) = match self.legend {
             Legend::Best => {
                 let samples = self.occupancy(lay);
-                let candidates = [
-                    Legend::TopRight,
-                    Legend::TopLeft,
-                    Legend::BottomRight,
-                    Legend::BottomLeft,
-                ];
+                let candidates = [Legend::TopRight, Legend::TopLeft, Legend::BottomRight, Legend::BottomLeft];
                 let mut best = (usize::MAX, corner(Legend::TopRight));
                 for c in candidates {
                     let (bx, by) = corner(c);
                     let count = samples
                         .iter()
                         .filter(|(x, y)| {
-                            *x >= bx - 4.0
-                                && *x <= bx + bw + 4.0
-                                && *y >= by - 4.0
-                                && *y <= by + bh + 4.0
+                            *x >= bx - 4.0 && *x <= bx + bw + 4.0 && *y >= by - 4.0 && *y <= by + bh + 4.0
                         })
                         .count();
                     if count < best.0 {
@@ -1690,15 +1589,8 @@ fn stroke_attrs(out: &mut String, color: Color, style: LineStyle, width: f64) {
 }
 
 fn marker_attrs(out: &mut String, color: Color, filled: bool) {
-    let fill = if filled {
-        color.to_string()
-    } else {
-        "none".to_string()
-    };
-    let _ = write!(
-        out,
-        "fill=\"{fill}\" stroke=\"{color}\" stroke-width=\"1.25\" stroke-linejoin=\"round\""
-    );
+    let fill = if filled { color.to_string() } else { "none".to_string() };
+    let _ = write!(out, "fill=\"{fill}\" stroke=\"{color}\" stroke-width=\"1.25\" stroke-linejoin=\"round\"");
 }
 
 /// Appends the outline of a marker of size `r` centred on `(cx, cy)` to a path.
@@ -1717,22 +1609,10 @@ fn marker_path(d: &mut String, marker: Marker, (cx, cy): (f64, f64), r: f64) {
         }
         Marker::Square => {
             let s = 0.886 * r;
-            let _ = write!(
-                d,
-                "M{} {}h{}v{}h{}Z",
-                P(cx - s),
-                P(cy - s),
-                P(2.0 * s),
-                P(2.0 * s),
-                P(-2.0 * s)
-            );
+            let _ = write!(d, "M{} {}h{}v{}h{}Z", P(cx - s), P(cy - s), P(2.0 * s), P(2.0 * s), P(-2.0 * s));
         }
         Marker::Triangle | Marker::TriangleDown => {
-            let sign = if marker == Marker::Triangle {
-                1.0
-            } else {
-                -1.0
-            };
+            let sign = if marker == Marker::Triangle { 1.0 } else { -1.0 };
             let c = 1.35 * r;
             let _ = write!(
                 d,
@@ -1851,10 +1731,7 @@ pub fn contour_segments(
                 continue;
             }
             let s = v.map(|v| v - level);
-            let case = s
-                .iter()
-                .enumerate()
-                .fold(0, |c, (b, &s)| c | (usize::from(s > 0.0) << b));
+            let case = s.iter().enumerate().fold(0, |c, (b, &s)| c | (usize::from(s > 0.0) << b));
             if case == 0 || case == 15 {
                 continue;
             }

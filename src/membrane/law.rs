@@ -135,9 +135,7 @@ impl<T: Real> NeoHookean<T> {
     /// # Errors
     /// [`Error::InvalidParameter`] naming `es` unless it is finite and `> 0`.
     pub fn new(es: T) -> Result<Self> {
-        Ok(Self {
-            es: positive("es", es)?,
-        })
+        Ok(Self { es: positive("es", es)? })
     }
 
     /// The modulus `E_s` of (2.5).
@@ -331,14 +329,7 @@ mod tests {
         let fd21 = (g(c1 + h, c2)[1] - g(c1 - h, c2)[1]) / (2.0 * h);
         let fd22 = (g(c1, c2 + h)[1] - g(c1, c2 - h)[1]) / (2.0 * h);
         let scale = 1.0 + w1.abs() + w2.abs() + w11.abs() + w22.abs();
-        for (a, b) in [
-            (w1, fd1),
-            (w2, fd2),
-            (w11, fd11),
-            (w12, fd12),
-            (w12, fd21),
-            (w22, fd22),
-        ] {
+        for (a, b) in [(w1, fd1), (w2, fd2), (w11, fd11), (w12, fd12), (w12, fd21), (w22, fd22)] {
             assert!((a - b).abs() < 1e-8 * scale, "{a} vs {b}");
         }
         let (g2, h2) = law.derivatives(c1, c2);
@@ -402,10 +393,7 @@ mod tests {
         }
         assert!(Skalak::new(1.0, 0.0).is_ok());
         let e = NeoHookean::new(-2.0).unwrap_err().to_string();
-        assert!(
-            e.contains("es") && e.contains("-2") && e.contains("> 0"),
-            "{e}"
-        );
+        assert!(e.contains("es") && e.contains("-2") && e.contains("> 0"), "{e}");
     }
 
     #[test]

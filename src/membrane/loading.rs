@@ -94,11 +94,7 @@ fn solve_increasing<T: Real>(f: impl Fn(T) -> (T, T)) -> Option<T> {
             hi = x;
         }
         let newton = x - v / dv;
-        let next = if dv > zero && newton > lo && newton < hi {
-            newton
-        } else {
-            T::lit(0.5) * (lo + hi)
-        };
+        let next = if dv > zero && newton > lo && newton < hi { newton } else { T::lit(0.5) * (lo + hi) };
         if (next - x).abs() <= tol * x || hi - lo <= tol * x {
             return Some(next);
         }
@@ -191,17 +187,11 @@ mod tests {
         for &l in &[0.6, 0.95, 1.001, 1.3, 2.0, 3.5] {
             let (t, l2) = uniaxial_tension(&nh, l).unwrap();
             let (tc, l2c) = nh.uniaxial_tension(l);
-            assert!(
-                (t - tc).abs() <= 1e-12 * tc.abs() && (l2 - l2c).abs() < 1e-14,
-                "{l}"
-            );
+            assert!((t - tc).abs() <= 1e-12 * tc.abs() && (l2 - l2c).abs() < 1e-14, "{l}");
             for law in [&sk, &sk10] {
                 let (t, l2) = uniaxial_tension(law, l).unwrap();
                 let (tc, l2c) = law.uniaxial_tension(l);
-                assert!(
-                    (t - tc).abs() <= 1e-12 * tc.abs() && (l2 - l2c).abs() < 1e-14,
-                    "{l}"
-                );
+                assert!((t - tc).abs() <= 1e-12 * tc.abs() && (l2 - l2c).abs() < 1e-14, "{l}");
                 let te = equibiaxial_tension(law, l).unwrap();
                 assert!((te - law.equibiaxial_tension(l)).abs() <= 1e-13 * te.abs());
             }
@@ -221,10 +211,7 @@ mod tests {
         // Saturation at G_s = 1.
         assert!(matches!(
             equibiaxial_stretch(&nh, 1.5),
-            Err(Error::InvalidParameter {
-                name: "tension",
-                ..
-            })
+            Err(Error::InvalidParameter { name: "tension", .. })
         ));
         assert!(uniaxial_tension(&nh, -1.0).is_err());
         assert!(uniaxial_tension(&nh, f64::NAN).is_err());

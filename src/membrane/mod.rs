@@ -31,7 +31,6 @@ pub mod stress;
 pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
 pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};
 pub use stress::{
-    Jacobian, SurfaceKinematics, TensionInvariants, energy_density, h_tensor, jacobian,
-    principal_tensions, stress, stress_and_jacobian, stretching, surface_kinematics,
-    tension_invariants,
+    Jacobian, SurfaceKinematics, TensionInvariants, energy_density, h_tensor, jacobian, principal_tensions,
+    stress, stress_and_jacobian, stretching, surface_kinematics, tension_invariants,
 };

@@ -63,8 +63,7 @@
 use super::law::SurfaceLaw;
 use crate::Real;
 use crate::tensor::{
-    Mat3, SYM_PAIRS, Sym, Vec3, XX, XY, YY, YZ, ZX, ZZ, dot, projector, sym_mul_vec, sym_to_mat,
-    trace,
+    Mat3, SYM_PAIRS, Sym, Vec3, XX, XY, YY, YZ, ZX, ZZ, dot, projector, sym_mul_vec, sym_to_mat, trace,
 };
 
 /// The 6x6 Jacobian `J' = dτ'/dG'` of (2.33) in the component form of Appendix B:
@@ -106,8 +105,7 @@ pub fn surface_kinematics<T: Real>(g: &Sym<T>, n: &Vec3<T>) -> SurfaceKinematics
         b[c] = g[c] - n[i] * gn[j] - gn[i] * n[j] + s * n[i] * n[j];
     }
     let c1 = trace(&b) - T::one();
-    let c2 = b[XX] * b[YY] - b[XY] * b[XY] + b[YY] * b[ZZ] - b[YZ] * b[YZ] + b[ZZ] * b[XX]
-        - b[ZX] * b[ZX];
+    let c2 = b[XX] * b[YY] - b[XY] * b[XY] + b[YY] * b[ZZ] - b[YZ] * b[YZ] + b[ZZ] * b[XX] - b[ZX] * b[ZX];
     SurfaceKinematics { p, b, c1, c2 }
 }
 
@@ -142,11 +140,7 @@ pub fn stress<T: Real, L: SurfaceLaw<T> + ?Sized>(law: &L, g: &Sym<T>, n: &Vec3<
 /// The Jacobian `J' = dτ'/dG'_s` (2.33), (B.1)–(B.5), at fixed `n`, in the component convention
 /// of [`Jacobian`]. Returns zero if `c2 ≤ 0`.
 #[inline]
-pub fn jacobian<T: Real, L: SurfaceLaw<T> + ?Sized>(
-    law: &L,
-    g: &Sym<T>,
-    n: &Vec3<T>,
-) -> Jacobian<T> {
+pub fn jacobian<T: Real, L: SurfaceLaw<T> + ?Sized>(law: &L, g: &Sym<T>, n: &Vec3<T>) -> Jacobian<T> {
     stress_and_jacobian(law, g, n).1
 }
 
@@ -228,10 +222,7 @@ pub fn h_tensor<T: Real>(grad_v: &Mat3<T>, g: &Sym<T>, jac: &Jacobian<T>) -> Sym
     let r = stretching(grad_v, g);
     let mut h = [T::zero(); 6];
     for (ha, row) in h.iter_mut().zip(jac.iter()) {
-        *ha = row
-            .iter()
-            .zip(r.iter())
-            .fold(T::zero(), |s, (&jab, &rb)| s + jab * rb);
+        *ha = row.iter().zip(r.iter()).fold(T::zero(), |s, (&jab, &rb)| s + jab * rb);
     }
     h
 }
@@ -288,21 +279,11 @@ pub fn tension_invariants<T: Real, L: SurfaceLaw<T> + ?Sized>(
     let zero = T::zero();
     let k = surface_kinematics(g, n);
     if k.c2 <= zero {
-        return TensionInvariants {
-            t1: zero,
-            t2: zero,
-            dilation: zero,
-            energy: zero,
-        };
+        return TensionInvariants { t1: zero, t2: zero, dilation: zero, energy: zero };
     }
     let [w1, w2] = law.gradient(k.c1, k.c2);
     let (t1, t2) = principal_tensions(&tau_from(&k, w1, w2), n);
-    TensionInvariants {
-        t1,
-        t2,
-        dilation: k.c2.sqrt(),
-        energy: law.energy(k.c1, k.c2),
-    }
+    TensionInvariants { t1, t2, dilation: k.c2.sqrt(), energy: law.energy(k.c1, k.c2) }
 }
 
 // Tensor components are indexed by number in the tests, as in the equations.
@@ -345,10 +326,8 @@ mod tests {
     #[test]
     fn jacobian_matches_finite_differences_oblique_normal() {
         let (g, n) = oblique_state();
-        let laws: [&dyn SurfaceLaw<f64>; 2] = [
-            &NeoHookean::new(1.3).unwrap(),
-            &Skalak::new(0.7, 5.0).unwrap(),
-        ];
+        let laws: [&dyn SurfaceLaw<f64>; 2] =
+            [&NeoHookean::new(1.3).unwrap(), &Skalak::new(0.7, 5.0).unwrap()];
         for law in laws {
             let (tau, j) = stress_and_jacobian(law, &g, &n);
             assert_eq!(tau, stress(law, &g, &n));
@@ -366,11 +345,7 @@ mod tests {
                 let (tp, tm) = (stress(law, &gp, &n), stress(law, &gm, &n));
                 for a in 0..6 {
                     let fd = (tp[a] - tm[a]) / (2.0 * h);
-                    assert!(
-                        (fd - j[a][b]).abs() < 1e-7 * scale,
-                        "{a},{b}: {fd} vs {}",
-                        j[a][b]
-                    );
+                    assert!((fd - j[a][b]).abs() < 1e-7 * scale, "{a},{b}: {fd} vs {}", j[a][b]);
                 }
             }
         }
@@ -403,14 +378,7 @@ mod tests {
         assert!((inv.dilation - 1.0).abs() < 1e-14 && inv.energy.abs() < 1e-14);
         // Degenerate: G = 0, or G = n n (no in-plane part): zeros, not NaN.
         let nh = NeoHookean::new(1.0).unwrap();
-        let nn = [
-            n[0] * n[0],
-            n[1] * n[1],
-            n[2] * n[2],
-            n[0] * n[1],
-            n[1] * n[2],
-            n[2] * n[0],
-        ];
+        let nn = [n[0] * n[0], n[1] * n[1], n[2] * n[2], n[0] * n[1], n[1] * n[2], n[2] * n[0]];
         for g in [[0.0; 6], nn] {
             let (t, j) = stress_and_jacobian(&nh, &g, &n);
             assert!(t.iter().all(|x| *x == 0.0));
