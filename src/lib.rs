@@ -13,6 +13,26 @@
 //! - [`membrane`]: surface constitutive laws, stress, Jacobian, bending, `G_s` transport;
 //! - [`fluid`]: Poisson/Helmholtz solvers, Krylov and SOR, the projection stepper;
 //! - [`diagnostics`] and [`io`]: measurements, plots, ParaView output.
+//!
+//! # Quick start: a pressure-driven channel
+//! ```
+//! use eulermembrane::fluid::{BodyForce, FlowConfig, FlowStepper, Materials};
+//! use eulermembrane::grid::{Boundary, Grid};
+//!
+//! // Periodic in x and z, walls at y = 0 and y = 1.
+//! let mut bc = [[Boundary::Periodic; 2]; 3];
+//! bc[1] = [Boundary::wall(), Boundary::wall()];
+//! let grid = Grid::<f64>::new([4, 16, 1], [0.0; 3], [0.25, 1.0, 1.0 / 16.0], bc)?;
+//! let mut flow = FlowStepper::new(&grid, Materials::uniform(1.0, 1.0)?, FlowConfig::default())?;
+//! let drive = BodyForce::new([1.0, 0.0, 0.0])?;
+//! for _ in 0..400 {
+//!     flow.step(1e-2, &drive, None)?;
+//! }
+//! // The centre-line velocity approaches f / (8 mu) = 0.125.
+//! let u = flow.velocity().c[0].at(&grid, 0, 8, 0);
+//! assert!((u - 0.125).abs() < 2e-3);
+//! # Ok::<(), eulermembrane::Error>(())
+//! ```
 #![warn(missing_docs)]
 // Stencil code indexes several arrays by the same axis number `d`; a range loop says that best.
 #![allow(clippy::needless_range_loop)]

@@ -105,6 +105,9 @@ impl<T: Real> Projection<T> {
                 let (lo, hi) = rho.range(grid);
                 let ws = self.pcg.get_or_insert_with(|| KrylovWorkspace::new(grid));
                 let op = VariableDensityOp { grid, rho };
+                // Start from zero: psi is an increment, and a relative tolerance is then met
+                // against the size of this step's divergence.
+                psi.fill(T::zero());
                 let mut pc = DirectPrecond {
                     grid,
                     solver: &mut self.direct,
