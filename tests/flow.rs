@@ -180,3 +180,45 @@ fn the_stepper_runs_in_f32() {
     let e = taylor_green_f32(32);
     assert!(e < 5e-3, "{e}");
 }
+
+#[test]
+fn a_restarted_run_is_bit_for_bit_identical() {
+    use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
+    let mut bc = [[Boundary::Periodic; 2]; 3];
+    bc[1] = [Boundary::wall(), Boundary::Wall { velocity: [1.0, 0.0, 0.0] }];
+    let grid = Grid::new([8, 8, 4], [0.0; 3], [1.0; 3], bc).unwrap();
+    let mu = Field::from_cell_fn(&grid, |x: [f64; 3]| 0.1 + 0.05 * (6.0 * x[1]).sin().powi(2));
+    let materials = Materials { rho: Coefficient::Uniform(1.0), mu: Coefficient::Field(mu) };
+    let make = || FlowStepper::new(&grid, materials.clone(), FlowConfig::default()).unwrap();
+    let force = eulermembrane::fluid::BodyForce::new([0.5, 0.0, 0.1]).unwrap();
+    let mut a = make();
+    a.set_velocity(|x| [0.0, 0.1 * (6.0 * x[0]).sin(), 0.0]).unwrap();
+    for _ in 0..4 {
+        a.step(0.01, &force, None).unwrap();
+    }
+    let path = std::env::temp_dir().join(format!("em_restart_{}.ckpt", std::process::id()));
+    let mut w = CheckpointWriter::new();
+    a.checkpoint(&mut w, "flow.");
+    w.save(&path).unwrap();
+    for _ in 0..4 {
+        a.step(0.01, &force, None).unwrap();
+    }
+    let mut b = make();
+    b.restore(&CheckpointReader::open(&path).unwrap(), "flow.").unwrap();
+    std::fs::remove_file(&path).unwrap();
+    for _ in 0..4 {
+        b.step(0.01, &force, None).unwrap();
+    }
+    assert_eq!(a.steps(), b.steps());
+    assert_eq!(a.time().to_bits(), b.time().to_bits());
+    for d in 0..3 {
+        assert!(
+            a.velocity().c[d]
+                .data
+                .iter()
+                .zip(&b.velocity().c[d].data)
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+        );
+    }
+    assert!(a.pressure().data.iter().zip(&b.pressure().data).all(|(x, y)| x.to_bits() == y.to_bits()));
+}

@@ -25,6 +25,7 @@ use super::projection::Projection;
 use super::sor::{SorParams, sor};
 use crate::grid::ops::{gradient_at_face, par_interior, par_interior_update};
 use crate::grid::{Field, Grid, VectorField};
+use crate::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
 
@@ -208,6 +209,82 @@ impl<T: Real> FlowStepper<T> {
             return Err(Error::NonFinite { field: "pressure", cell });
         }
         self.p = p;
+        Ok(())
+    }
+
+    /// Adds the whole flow state (velocity, pressure, time history, materials, time, step
+    /// count) to a checkpoint, with names prefixed by `prefix`.
+    pub fn checkpoint(&self, w: &mut CheckpointWriter, prefix: &str) {
+        let n = self.grid.n();
+        w.number(&format!("{prefix}nx"), n[0] as f64)
+            .number(&format!("{prefix}ny"), n[1] as f64)
+            .number(&format!("{prefix}nz"), n[2] as f64)
+            .number(&format!("{prefix}time"), self.time.f64())
+            .number(&format!("{prefix}step"), self.step as f64)
+            .number(&format!("{prefix}has_history"), if self.has_history { 1.0 } else { 0.0 });
+        for d in 0..3 {
+            w.array(&format!("{prefix}v{d}"), &self.v.c[d].data)
+                .array(&format!("{prefix}adv_prev{d}"), &self.adv_prev.c[d].data)
+                .array(&format!("{prefix}vstar_prev{d}"), &self.vstar_prev.c[d].data);
+        }
+        w.array(&format!("{prefix}p"), &self.p.data);
+        for (name, c) in [("rho", &self.materials.rho), ("mu", &self.materials.mu)] {
+            match c {
+                Coefficient::Uniform(x) => w.number(&format!("{prefix}{name}_uniform"), x.f64()),
+                Coefficient::Field(f) => w.array(&format!("{prefix}{name}_field"), &f.data),
+            };
+        }
+    }
+
+    /// Restores the state written by [`FlowStepper::checkpoint`] with the same `prefix`. The
+    /// state is replaced only if everything could be read. Errors: a checkpoint of another
+    /// grid, a missing entry.
+    pub fn restore(&mut self, r: &CheckpointReader, prefix: &str) -> Result<()> {
+        let g = &self.grid;
+        let n = g.n();
+        for (d, axis) in ["nx", "ny", "nz"].iter().enumerate() {
+            let m = r.number(&format!("{prefix}{axis}"))?;
+            if m != n[d] as f64 {
+                return Err(Error::invalid(
+                    "checkpoint grid",
+                    format!("{axis} = {m}"),
+                    "the cell counts of this stepper's grid",
+                ));
+            }
+        }
+        let len = g.len();
+        let field = |name: String| -> Result<Field<T>> { Ok(Field { data: r.array(&name, len)? }) };
+        let vector = |name: &str| -> Result<VectorField<T>> {
+            Ok(VectorField {
+                c: [
+                    field(format!("{prefix}{name}0"))?,
+                    field(format!("{prefix}{name}1"))?,
+                    field(format!("{prefix}{name}2"))?,
+                ],
+            })
+        };
+        let coefficient = |name: &str| -> Result<Coefficient<T>> {
+            let uniform = format!("{prefix}{name}_uniform");
+            if r.has(&uniform) {
+                Ok(Coefficient::Uniform(T::lit(r.number(&uniform)?)))
+            } else {
+                Ok(Coefficient::Field(field(format!("{prefix}{name}_field"))?))
+            }
+        };
+        let (v, adv_prev, vstar_prev) = (vector("v")?, vector("adv_prev")?, vector("vstar_prev")?);
+        let p = field(format!("{prefix}p"))?;
+        let materials = Materials { rho: coefficient("rho")?, mu: coefficient("mu")? };
+        let time = T::lit(r.number(&format!("{prefix}time"))?);
+        let step = r.number(&format!("{prefix}step"))? as usize;
+        let has_history = r.number(&format!("{prefix}has_history"))? != 0.0;
+        self.set_materials(materials)?;
+        self.v = v;
+        self.adv_prev = adv_prev;
+        self.vstar_prev = vstar_prev;
+        self.p = p;
+        self.time = time;
+        self.step = step;
+        self.has_history = has_history;
         Ok(())
     }
 

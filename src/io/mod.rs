@@ -5,13 +5,18 @@
 //!   marching squares ([`plot::contour_segments`]) to draw an interface from a sampled field;
 //! - [`csv`]: time series and profiles written with full precision ([`csv::CsvWriter`],
 //!   [`csv::write_columns`]), read back ([`csv::read_columns`]), and published reference curves
-//!   read from two-column files ([`csv::read_xy`]).
+//!   read from two-column files ([`csv::read_xy`]);
+//! - [`vtk`]: ParaView snapshots (`.vti`, raw appended binary) and `.pvd` time series;
+//! - [`checkpoint`]: a binary container of named arrays for bit-for-bit restarts, written
+//!   atomically.
 //!
 //! Every function that touches the file system creates missing parent directories and maps an
 //! operating-system failure to [`crate::Error::Io`] with the path involved.
 
+pub mod checkpoint;
 pub mod csv;
 pub mod plot;
+pub mod vtk;
 
 use crate::{Error, Result};
 use std::path::Path;

@@ -1,0 +1,149 @@
+//! A small binary container of named arrays, for checkpoint and restart.
+//!
+//! Layout (little endian): the magic `EMCKPT01`, a `u64` entry count, then per entry a `u64`
+//! name length, the UTF-8 name, a `u64` value count and the values as `f64` bit patterns. `f32`
+//! and `f64` values both round-trip exactly through `f64`, so a restarted run continues bit for
+//! bit. Files are written atomically ([`super::vtk::write_atomic`]): a failed write leaves the
+//! previous checkpoint intact.
+
+use super::io_error;
+use super::vtk::write_atomic;
+use crate::{Error, Real, Result};
+use std::collections::HashMap;
+use std::path::Path;
+
+const MAGIC: &[u8; 8] = b"EMCKPT01";
+
+/// Collects named arrays, then writes them with [`CheckpointWriter::save`].
+#[derive(Debug, Default)]
+pub struct CheckpointWriter {
+    entries: Vec<(String, Vec<f64>)>,
+}
+
+impl CheckpointWriter {
+    /// An empty checkpoint.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds an array of values.
+    pub fn array<T: Real>(&mut self, name: &str, data: &[T]) -> &mut Self {
+        self.entries.push((name.to_string(), data.iter().map(|x| x.f64()).collect()));
+        self
+    }
+
+    /// Adds a single number (integers up to 2^53 are exact).
+    pub fn number(&mut self, name: &str, x: f64) -> &mut Self {
+        self.entries.push((name.to_string(), vec![x]));
+        self
+    }
+
+    /// The encoded bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = MAGIC.to_vec();
+        b.extend_from_slice(&(self.entries.len() as u64).to_le_bytes());
+        for (name, data) in &self.entries {
+            b.extend_from_slice(&(name.len() as u64).to_le_bytes());
+            b.extend_from_slice(name.as_bytes());
+            b.extend_from_slice(&(data.len() as u64).to_le_bytes());
+            for x in data {
+                b.extend_from_slice(&x.to_bits().to_le_bytes());
+            }
+        }
+        b
+    }
+
+    /// Writes the checkpoint atomically to `path`.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        write_atomic(path.as_ref(), &self.to_bytes())
+    }
+}
+
+/// A checkpoint read back from a file.
+#[derive(Debug)]
+pub struct CheckpointReader {
+    path: String,
+    entries: HashMap<String, Vec<f64>>,
+}
+
+impl CheckpointReader {
+    /// Reads and decodes `path`. Errors: unreadable file, wrong magic, truncated content.
+    pub fn open(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let bytes = std::fs::read(path).map_err(|e| io_error(path, e))?;
+        Self::from_bytes(&bytes, &path.display().to_string())
+    }
+
+    /// Decodes bytes produced by [`CheckpointWriter::to_bytes`]; `path` is used in messages.
+    pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Self> {
+        let bad =
+            |what: &str| Error::Io { path: path.to_string(), message: format!("not a checkpoint: {what}") };
+        if bytes.len() < 16 || &bytes[..8] != MAGIC {
+            return Err(bad("missing header EMCKPT01"));
+        }
+        let mut pos = 8;
+        let mut take = |n: usize| -> Result<&[u8]> {
+            let s = bytes.get(pos..pos + n).ok_or_else(|| bad("truncated"))?;
+            pos += n;
+            Ok(s)
+        };
+        let u64_of = |s: &[u8]| u64::from_le_bytes(s.try_into().unwrap_or([0; 8]));
+        let count = u64_of(take(8)?) as usize;
+        let mut entries = HashMap::new();
+        for _ in 0..count {
+            let nlen = u64_of(take(8)?) as usize;
+            let name = String::from_utf8(take(nlen)?.to_vec()).map_err(|_| bad("name is not UTF-8"))?;
+            let len = u64_of(take(8)?) as usize;
+            let raw = take(len.checked_mul(8).ok_or_else(|| bad("length overflow"))?)?;
+            let data = raw.chunks_exact(8).map(|c| f64::from_bits(u64_of(c))).collect();
+            entries.insert(name, data);
+        }
+        Ok(CheckpointReader { path: path.to_string(), entries })
+    }
+
+    /// The array `name`, which must hold `len` values.
+    pub fn array<T: Real>(&self, name: &str, len: usize) -> Result<Vec<T>> {
+        let data = self.entries.get(name).ok_or_else(|| Error::Io {
+            path: self.path.clone(),
+            message: format!("checkpoint has no entry `{name}`"),
+        })?;
+        if data.len() != len {
+            return Err(Error::Io {
+                path: self.path.clone(),
+                message: format!("entry `{name}` has {} values, expected {len} (another grid?)", data.len()),
+            });
+        }
+        Ok(data.iter().map(|&x| T::lit(x)).collect())
+    }
+
+    /// The single number `name`.
+    pub fn number(&self, name: &str) -> Result<f64> {
+        Ok(self.array::<f64>(name, 1)?[0])
+    }
+
+    /// Whether the checkpoint holds `name`.
+    pub fn has(&self, name: &str) -> bool {
+        self.entries.contains_key(name)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_is_exact_for_f32_and_f64() {
+        let a: Vec<f64> = vec![0.1, -3.0e-300, f64::MAX, 1.0 / 3.0];
+        let b: Vec<f32> = vec![0.1, 1.0 / 3.0, f32::MIN_POSITIVE];
+        let mut w = CheckpointWriter::new();
+        w.array("a", &a).array("b", &b).number("step", 42.0);
+        let r = CheckpointReader::from_bytes(&w.to_bytes(), "mem").unwrap();
+        assert_eq!(r.array::<f64>("a", 4).unwrap(), a);
+        assert_eq!(r.array::<f32>("b", 3).unwrap(), b);
+        assert_eq!(r.number("step").unwrap(), 42.0);
+        assert!(r.array::<f64>("a", 5).is_err());
+        assert!(r.array::<f64>("c", 1).is_err());
+        assert!(CheckpointReader::from_bytes(&w.to_bytes()[..20], "mem").is_err());
+        assert!(CheckpointReader::from_bytes(b"not a checkpoint", "mem").is_err());
+    }
+}
