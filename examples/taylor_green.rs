@@ -10,6 +10,7 @@ use eulermembrane::fluid::{PredictorSolver, SorParams};
 
 fn main() {
     let args = common::Args::parse();
+    let out = args.out_dir("taylor_green");
     let t_end: f64 = args.get("t-end", 1.0);
     let solver = if args.flag("sor") {
         PredictorSolver::Sor(SorParams::default())
@@ -21,7 +22,8 @@ fn main() {
     println!("{:>5} {:>12} {:>12} {:>7}", "N", "L2(u)", "Linf(u)", "order");
     for (m, &n) in ns.iter().enumerate() {
         let t0 = std::time::Instant::now();
-        let (l2, linf) = cases::taylor_green(n, t_end, solver);
+        let vti = out.join(format!("taylor_green_n{n}.vti"));
+        let (l2, linf) = cases::taylor_green_snapshot(n, t_end, solver, Some(&vti));
         let ord = if m > 0 { common::order(errs[m - 1], l2, ns[m - 1] as f64, n as f64) } else { f64::NAN };
         errs.push(l2);
         println!("{n:>5} {l2:>12.4e} {linf:>12.4e} {ord:>7.3}   ({:.2} s)", t0.elapsed().as_secs_f64());

@@ -9,6 +9,16 @@ use std::f64::consts::PI;
 /// RMS and max error of the two in-plane components of a 2D Taylor-Green vortex at `t_end`, on
 /// an `n x n` periodic box `[0, 2 pi]^2`, `mu = 0.1`, `rho = 1`, `dt = 0.25 h`.
 pub fn taylor_green(n: usize, t_end: f64, solver: PredictorSolver) -> (f64, f64) {
+    taylor_green_snapshot(n, t_end, solver, None)
+}
+
+/// As [`taylor_green`], writing the final velocity and pressure to `vti` (ParaView) if given.
+pub fn taylor_green_snapshot(
+    n: usize,
+    t_end: f64,
+    solver: PredictorSolver,
+    vti: Option<&std::path::Path>,
+) -> (f64, f64) {
     let l = 2.0 * PI;
     let h = l / n as f64;
     let grid = Grid::periodic([n, n, 1], [0.0; 3], [l, l, h]).unwrap();
@@ -26,6 +36,11 @@ pub fn taylor_green(n: usize, t_end: f64, solver: PredictorSolver) -> (f64, f64)
     let dt = t_end / steps as f64;
     for _ in 0..steps {
         s.step(dt, &(), None).unwrap();
+    }
+    if let Some(path) = vti {
+        let mut w = eulermembrane::io::vtk::VtiWriter::new(&grid);
+        w.vector("velocity", s.velocity()).scalar("pressure", s.pressure());
+        w.write(path).unwrap_or_else(|e| eprintln!("warning: {e}"));
     }
     let v = s.velocity();
     let (mut sum, mut max, mut count) = (0.0, 0.0f64, 0.0);
