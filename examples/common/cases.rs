@@ -2,7 +2,7 @@
 //! `#[path]`): each runs the public API and returns measured errors.
 #![allow(dead_code)]
 
-use eulermembrane::fluid::{BodyForce, Coefficient, FlowConfig, FlowStepper, Materials, PredictorSolver};
+use eulermembrane::fluid::{BodyForce, FlowConfig, FlowStepper, Materials, PredictorSolver};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use std::f64::consts::PI;
 
@@ -138,9 +138,7 @@ pub fn two_layer_couette(n: usize, mu1: f64, mu2: f64, y_i: f64) -> Vec<(f64, f6
         let (a, b) = ((y_i - (x[1] - 0.5 * h)) / h, (y_i - (x[1] + 0.5 * h)) / h);
         0.5 + 0.5 * (a.cosh().ln() - b.cosh().ln())
     });
-    let mut mu = phi.clone();
-    mu.data.iter_mut().zip(&phi.data).for_each(|(m, &p)| *m = p * mu1 + (1.0 - p) * mu2);
-    let materials = Materials { rho: Coefficient::Uniform(1.0), mu: Coefficient::Field(mu) };
+    let materials = Materials::mixture(&grid, &phi, (1.0, mu1), (1.0, mu2)).unwrap();
     let mut s = FlowStepper::new(&grid, materials, FlowConfig::default()).unwrap();
     // Large implicit steps reach the steady state quickly (Crank-Nicolson is unconditionally
     // stable); stop when the profile no longer changes.

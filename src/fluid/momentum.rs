@@ -94,6 +94,32 @@ impl<T: Real> Materials<T> {
         crate::error::positive("mu", mu)?;
         Ok(Materials { rho: Coefficient::Uniform(rho), mu: Coefficient::Uniform(mu) })
     }
+
+    /// The mixture (2.25) of two phases weighted by the VOF function `phi` (1 in phase 1):
+    /// `rho = phi rho1 + (1 - phi) rho2`, `mu = phi mu1 + (1 - phi) mu2`. A property that is
+    /// equal in both phases stays [`Coefficient::Uniform`] (no field is allocated, and the
+    /// stepper keeps its constant-coefficient paths). Errors: non-positive or non-finite values.
+    pub fn mixture(grid: &Grid<T>, phi: &Field<T>, phase1: (T, T), phase2: (T, T)) -> Result<Self> {
+        let names = [("rho1", "mu1"), ("rho2", "mu2")];
+        for ((rho, mu), (rn, mn)) in [phase1, phase2].into_iter().zip(names) {
+            crate::error::positive(rn, rho)?;
+            crate::error::positive(mn, mu)?;
+        }
+        let mix = |a: T, b: T| {
+            if a == b {
+                Coefficient::Uniform(a)
+            } else {
+                let mut f = phi.clone();
+                f.data.iter_mut().for_each(|p| {
+                    let w = p.max(T::zero()).min(T::one());
+                    *p = w * a + (T::one() - w) * b;
+                });
+                f.fill_ghosts(grid);
+                Coefficient::Field(f)
+            }
+        };
+        Ok(Materials { rho: mix(phase1.0, phase2.0), mu: mix(phase1.1, phase2.1) })
+    }
 }
 
 /// Viscosity as seen by the stencils: cell values plus edge averages when it varies.
