@@ -19,7 +19,7 @@ use super::forcing::Forcing;
 use super::krylov::{KrylovParams, KrylovWorkspace, bicgstab};
 use super::momentum::{
     Coefficient, HelmholtzPrecond, ImplicitTerm, Materials, Predictor, ViscosityView, advection_at,
-    edge_viscosity, face_density, is_wall_face, viscous_at,
+    edge_viscosity, face_density, is_wall_face, uniform_helmholtz, viscous_at,
 };
 use super::projection::Projection;
 use super::sor::{SorParams, sor};
@@ -331,20 +331,29 @@ impl<T: Real> FlowStepper<T> {
             forcing.add(g, self.time, &self.v, &mut ws.force);
         }
 
-        // 3. Right-hand side of (2.35).
+        // 3. Right-hand side of (2.35); the explicit viscous half first (fast path when mu is
+        // uniform), then the other terms added in place.
         let half = T::lit(0.5);
+        let uniform_mu = match &self.materials.mu {
+            Coefficient::Uniform(m) => Some(*m),
+            Coefficient::Field(_) => None,
+        };
+        if let Some(m) = uniform_mu {
+            uniform_helmholtz(g, &self.vstar_prev, T::zero(), half * m, &mut ws.rhs);
+        }
         for c in 0..3 {
             let (adv, advp, force) = (&ws.adv.c[c].data, &self.adv_prev.c[c].data, &ws.force.c[c].data);
             let (v, p, vsp) = (&self.v, &self.p, &self.vstar_prev);
-            par_interior(g, &mut ws.rhs.c[c].data, |idx, i, j, k| {
+            par_interior_update(g, &mut ws.rhs.c[c].data, |idx, i, j, k, visc| {
                 if is_wall_face(g, c, [i, j, k]) {
                     return T::zero();
                 }
                 let rf = face_density(g, rho, c, idx);
+                let visc = if uniform_mu.is_some() { visc } else { half * viscous_at(g, &mu, vsp, c, idx) };
                 let mut b = rf * inv_dt * v.c[c].data[idx]
                     - rf * (a1 * adv[idx] + a0 * advp[idx])
                     - gradient_at_face(g, p, c, idx)
-                    + half * viscous_at(g, &mu, vsp, c, idx);
+                    + visc;
                 if forced {
                     b += force[idx];
                 }
