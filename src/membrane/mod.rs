@@ -24,12 +24,20 @@
 //! maps tensor-component increments `dG'` to `dτ'` (see [`stress`](mod@stress) for the factor-two
 //! convention and for two corrections to Appendix B).
 
+pub mod band;
+pub mod bending;
+pub mod force;
 pub mod law;
 pub mod loading;
+pub mod strain;
 pub mod stress;
 
+pub use band::{Band, MAX_HALO};
+pub use bending::{Bending, BendingForcing, curvature_at, mean_curvature_at};
+pub use force::{InPlaneElasticity, InPlaneForcing, InPlaneImplicit};
 pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
 pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};
+pub use strain::{StrainTransport, advective_tendency, fill_projector, reset_outside_band, upwind3_face};
 pub use stress::{
     Jacobian, SurfaceKinematics, TensionInvariants, energy_density, h_tensor, jacobian, principal_tensions,
     stress, stress_and_jacobian, stretching, surface_kinematics, tension_invariants,

@@ -1,0 +1,300 @@
+//! Transport of the surface deformation tensor `G_s`: eq. (2.22),
+//!
+//! ```text
+//! ∂G_s/∂t + v·∇G_s = ∇vᵀ·G_s + G_s·∇v,
+//! ```
+//!
+//! discretised as (2.40): second-order Adams–Bashforth for the advection, the average of the
+//! velocity gradients of steps `n` and `n+1` for the stretching,
+//!
+//! ```text
+//! (G^{n+1} − Gⁿ)/Δt + (3/2) A(vⁿ, Gⁿ) − (1/2) A(v^{n−1}, G^{n−1})
+//!     = ½ (∇vⁿ + ∇v^{n+1})ᵀ·Gⁿ + ½ Gⁿ·(∇vⁿ + ∇v^{n+1}),
+//! ```
+//!
+//! then the re-set `G^{n+1} = P^{n+1}` in the cells with `δ h < ε` (Sec. 2.2.2).
+//!
+//! # Advection: third-order upwind finite volumes
+//!
+//! `A(v, G) = ∇_h·(v G) − G ∇_h·v` for each of the six components, with the flux through a face
+//! equal to the staggered velocity on that face times the upwind-biased quadratic
+//! reconstruction of `G` there: for the face between cells `i−1` and `i` and a velocity `u ≥ 0`,
+//! `G_face = (−G_{i−2} + 5 G_{i−1} + 2 G_i)/6` (mirrored for `u < 0`). This is the third-order
+//! upwind flux for cell averages, and — the flux difference being
+//! `u (G_{i−2} − 6 G_{i−1} + 3 G_i + 2 G_{i+1})/(6h)` — also third order for point values
+//! (leading error `u h³/12 ∂⁴G`, dissipative). QUICK's `(−1, 6, 3)/8` would be second order
+//! here. Subtracting `G ∇_h·v` makes a uniform `G_s` exactly steady under any velocity, and
+//! changes nothing for a discretely divergence-free one.
+//!
+//! The stretching term uses the cell-centred velocity gradient [`grad_v_at_cell`]
+//! (`∇v[i][j] = ∂v_j/∂x_i`), the operator whose negative adjoint is the face divergence of the
+//! in-plane force (see [`super::force`]), and [`stretching`].
+//!
+//! # Where it is computed
+//!
+//! With the band `B` of step `n+1` (from `δ^{n+1}`):
+//! - the advective tendency on [`Band::halo`]`(1)` (so that cells entering the band next step
+//!   have their AB2 history); it reads `Gⁿ` up to three cells from the band;
+//! - the update on the band cells;
+//! - the re-set `G = P^{n+1}` out to `halo(4)`, so that next step's reads find valid values.
+//!
+//! This assumes that the interface moves less than one cell per step (an advective CFL number
+//! below one, which the advection schemes need anyway). Further from the band `G_s` keeps stale
+//! values that nothing reads; [`reset_outside_band`] applies the paper's re-set to the whole box
+//! (for output, or after a large jump). A band cell without history (it was more than one cell
+//! from the band at the previous step) takes a forward-Euler advection step.
+//!
+//! Time levels: `vⁿ` (ghosts filled), `v^{n+1}` (ghosts filled), `n^{n+1}` and the band of step
+//! `n+1`; the caller keeps `vⁿ` across the flow step.
+
+use super::band::Band;
+use super::stress::stretching;
+use crate::error::positive;
+use crate::grid::ops::{grad_v_at_cell, par_interior_update};
+use crate::grid::{Field, Grid, SymField, VectorField};
+use crate::tensor::{Sym, projector};
+use crate::{Error, Real, Result};
+use rayon::prelude::*;
+
+/// Cells per rayon task.
+const MIN_CELLS_PER_TASK: usize = 256;
+
+/// Position-map value of a cell without a stored tendency.
+const NONE: u32 = u32::MAX;
+
+/// Third-order upwind value on the face between `b` and `c` of the window `a | b | c | d`:
+/// `(−a + 5b + 2c)/6` if `u ≥ 0`, else `(2b + 5c − d)/6`.
+#[inline(always)]
+pub fn upwind3_face<T: Real>(u: T, a: T, b: T, c: T, d: T) -> T {
+    let sixth = T::lit(1.0 / 6.0);
+    let five = T::lit(5.0);
+    let two = T::lit(2.0);
+    if u >= T::zero() { sixth * (five * b + two * c - a) } else { sixth * (two * b + five * c - d) }
+}
+
+/// The advective tendency `A(v, G) = ∇_h·(v G) − G ∇_h·v` of the six components of `gs` at cell
+/// `idx` (third-order upwind fluxes, see the [module docs](self)). Reads `gs` two cells and `v`
+/// one face around the cell (ghosts filled).
+#[inline]
+pub fn advective_tendency<T: Real>(
+    grid: &Grid<T>,
+    v: &VectorField<T>,
+    gs: &SymField<T>,
+    idx: usize,
+) -> Sym<T> {
+    let st = grid.strides();
+    let h = grid.h();
+    let mut out = [T::zero(); 6];
+    let mut div = T::zero();
+    for d in 0..3 {
+        let s = st[d];
+        let ih = T::one() / h[d];
+        let u_lo = v.c[d].data[idx];
+        let u_hi = v.c[d].data[idx + s];
+        div += (u_hi - u_lo) * ih;
+        for (o, comp) in out.iter_mut().zip(gs.c.iter()) {
+            let q = &comp.data;
+            let (m2, m1, c0, p1, p2) = (q[idx - 2 * s], q[idx - s], q[idx], q[idx + s], q[idx + 2 * s]);
+            let f_lo = u_lo * upwind3_face(u_lo, m2, m1, c0, p1);
+            let f_hi = u_hi * upwind3_face(u_hi, m1, c0, p1, p2);
+            *o += (f_hi - f_lo) * ih;
+        }
+    }
+    for (o, comp) in out.iter_mut().zip(gs.c.iter()) {
+        *o -= comp.data[idx] * div;
+    }
+    out
+}
+
+/// Sets `G_s = P = I − n n` in every interior cell (the stress-free initial state; ghosts are
+/// not touched). O(box): for initialisation.
+pub fn fill_projector<T: Real>(grid: &Grid<T>, normal: &[Field<T>; 3], gs: &mut SymField<T>) {
+    for (c, comp) in gs.c.iter_mut().enumerate() {
+        par_interior_update(grid, &mut comp.data, |idx, _, _, _, _| {
+            projector(&[normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]])[c]
+        });
+    }
+}
+
+/// The paper's re-set over the whole box: `G_s = P` in every interior cell that is not a band
+/// cell (`δ h < ε`). O(box): for output or after a jump of the interface; a step of
+/// [`StrainTransport`] does this only near the band.
+///
+/// # Errors
+/// [`Error::InvalidParameter`] naming `grid` if `band` was made for another grid.
+pub fn reset_outside_band<T: Real>(
+    grid: &Grid<T>,
+    band: &Band<T>,
+    normal: &[Field<T>; 3],
+    gs: &mut SymField<T>,
+) -> Result<()> {
+    band.matches(grid)?;
+    for (c, comp) in gs.c.iter_mut().enumerate() {
+        par_interior_update(grid, &mut comp.data, |idx, _, _, _, old| {
+            if band.contains(idx) {
+                old
+            } else {
+                projector(&[normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]])[c]
+            }
+        });
+    }
+    Ok(())
+}
+
+/// The `G_s` transport (2.40) with its AB2 history and work arrays (see the [module docs](self)).
+#[derive(Debug, Clone)]
+pub struct StrainTransport<T> {
+    grid: Grid<T>,
+    /// Position in `prev_cells` of every interior storage index, or `NONE`.
+    slot: Vec<u32>,
+    prev_cells: Vec<usize>,
+    prev_adv: Vec<Sym<T>>,
+    adv: Vec<Sym<T>>,
+    new_g: Vec<Sym<T>>,
+    has_history: bool,
+}
+
+impl<T: Real> StrainTransport<T> {
+    /// A transport on `grid`, without history (the first step uses forward Euler for the
+    /// advection). Allocates one `u32` per stored cell for the history map.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `grid` if it has `2^32 − 1` stored cells or more.
+    pub fn new(grid: &Grid<T>) -> Result<Self> {
+        if grid.len() >= NONE as usize {
+            return Err(Error::invalid("grid", grid.len(), "fewer than 2^32 - 1 stored cells"));
+        }
+        Ok(StrainTransport {
+            grid: grid.clone(),
+            slot: vec![NONE; grid.len()],
+            prev_cells: Vec::new(),
+            prev_adv: Vec::new(),
+            adv: Vec::new(),
+            new_g: Vec::new(),
+            has_history: false,
+        })
+    }
+
+    /// Forgets the AB2 history (the next step uses forward Euler), e.g. after a restart from a
+    /// state without history or a change of the time step.
+    pub fn reset_history(&mut self) {
+        for &idx in &self.prev_cells {
+            self.slot[idx] = NONE;
+        }
+        self.prev_cells.clear();
+        self.prev_adv.clear();
+        self.has_history = false;
+    }
+
+    /// Whether the next step uses AB2 (a previous tendency is stored).
+    pub fn has_history(&self) -> bool {
+        self.has_history
+    }
+
+    /// Advances `gs` from `Gⁿ` to `G^{n+1}` by (2.40) and applies the re-set near the band.
+    ///
+    /// Inputs: `band` of step `n+1`; `dt`; `v_old = vⁿ` and `v_new = v^{n+1}` (staggered, ghosts
+    /// filled); `normal = n^{n+1}` at cell centres (for `P^{n+1}` of the re-set). The ghosts of
+    /// `gs` are filled here.
+    ///
+    /// # Errors
+    /// - [`Error::InvalidParameter`] naming `grid` (another grid than [`new`](Self::new)'s, or
+    ///   the band's), `dt` (not finite and `> 0`) or a field of the wrong size;
+    /// - [`Error::NonFinite`] naming `G_s` at the first band cell whose new value is not finite.
+    ///
+    /// On error the interior of `gs` and the history are left as they were.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step(
+        &mut self,
+        grid: &Grid<T>,
+        band: &Band<T>,
+        dt: T,
+        v_old: &VectorField<T>,
+        v_new: &VectorField<T>,
+        normal: &[Field<T>; 3],
+        gs: &mut SymField<T>,
+    ) -> Result<()> {
+        if grid != &self.grid {
+            return Err(Error::invalid(
+                "grid",
+                format!("{:?} cells", grid.n()),
+                "the grid of StrainTransport::new",
+            ));
+        }
+        band.matches(grid)?;
+        positive("dt", dt)?;
+        let len = grid.len();
+        let sizes = [
+            ("v_old", v_old.c.iter().all(|f| f.data.len() == len)),
+            ("v_new", v_new.c.iter().all(|f| f.data.len() == len)),
+            ("normal", normal.iter().all(|f| f.data.len() == len)),
+            ("gs", gs.c.iter().all(|f| f.data.len() == len)),
+        ];
+        if let Some((name, _)) = sizes.iter().find(|(_, ok)| !ok) {
+            return Err(Error::invalid(name, "a field of another grid", "a field of the band's grid"));
+        }
+        gs.fill_ghosts(grid);
+        let gs_ro: &SymField<T> = gs;
+
+        // 1. A(vⁿ, Gⁿ) on halo(1).
+        let cells1 = band.halo(1);
+        self.adv.resize(cells1.len(), [T::zero(); 6]);
+        self.adv
+            .par_iter_mut()
+            .zip(cells1.par_iter())
+            .with_min_len(MIN_CELLS_PER_TASK)
+            .for_each(|(a, &idx)| *a = advective_tendency(grid, v_old, gs_ro, idx));
+
+        // 2. G^{n+1} on the band.
+        let nb = band.len();
+        self.new_g.resize(nb, [T::zero(); 6]);
+        let (slot, prev_adv, adv) = (&self.slot, &self.prev_adv, &self.adv);
+        let history = self.has_history;
+        let (ab_new, ab_old) = (T::lit(1.5), T::lit(-0.5));
+        let half = T::lit(0.5);
+        self.new_g.par_iter_mut().enumerate().with_min_len(MIN_CELLS_PER_TASK).for_each(|(p, out)| {
+            let idx = cells1[p];
+            let a_n = adv[p];
+            let prev = if history { slot[idx] } else { NONE };
+            let tendency: Sym<T> = if prev == NONE {
+                a_n
+            } else {
+                let a_p = prev_adv[prev as usize];
+                std::array::from_fn(|k| ab_new * a_n[k] + ab_old * a_p[k])
+            };
+            let g0 = grad_v_at_cell(grid, v_old, idx);
+            let g1 = grad_v_at_cell(grid, v_new, idx);
+            let gv: [[T; 3]; 3] =
+                std::array::from_fn(|i| std::array::from_fn(|j| half * (g0[i][j] + g1[i][j])));
+            let g = gs_ro.get(idx);
+            let r = stretching(&gv, &g);
+            *out = std::array::from_fn(|k| g[k] + dt * (r[k] - tendency[k]));
+        });
+        if let Some(p) = self.new_g.iter().position(|g| !g.iter().all(|x| x.is_finite())) {
+            let c = band.coords(0)[p];
+            return Err(Error::NonFinite {
+                field: "G_s",
+                cell: [c[0] as usize, c[1] as usize, c[2] as usize],
+            });
+        }
+
+        // 3. Commit: band values, re-set around the band, history.
+        for (&idx, g) in band.cells().iter().zip(&self.new_g) {
+            gs.set(idx, g);
+        }
+        for &idx in &band.halo(super::band::MAX_HALO)[nb..] {
+            gs.set(idx, &projector(&[normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]]));
+        }
+        for &idx in &self.prev_cells {
+            self.slot[idx] = NONE;
+        }
+        self.prev_cells.clear();
+        self.prev_cells.extend_from_slice(cells1);
+        for (p, &idx) in cells1.iter().enumerate() {
+            self.slot[idx] = p as u32;
+        }
+        std::mem::swap(&mut self.prev_adv, &mut self.adv);
+        self.has_history = true;
+        Ok(())
+    }
+}
