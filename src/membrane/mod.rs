@@ -17,7 +17,15 @@
 //! - [`stress`](mod@stress): `B_s`, `c1`, `c2`, `τ`, `J'`, `H`, energy density and principal tensions —
 //!   pointwise, allocation free, generic over the law and over `f32`/`f64`;
 //! - [`loading`]: uniaxial and equibiaxial tension of a flat sheet for any law (checked against
-//!   the closed forms of the two paper laws and against Barthès-Biesel et al. 2002).
+//!   the closed forms of the two paper laws and against Barthès-Biesel et al. 2002);
+//! - [`band`]: the cells where `delta h >= epsilon`, where all membrane work happens, so that its
+//!   cost grows with the capsule surface rather than with the box;
+//! - [`force`]: the in-plane force `div(delta tau)` on the staggered faces, explicit
+//!   ([`Forcing`](crate::fluid::Forcing)) and quasi-implicit
+//!   ([`ImplicitTerm`](crate::fluid::ImplicitTerm)) parts of (2.35);
+//! - [`bending`]: the modified bending stress (2.16)-(2.17) and its force;
+//! - [`strain`]: transport of `G_s` (2.40) with third-order upwind fluxes, AB2, and the re-set to
+//!   `P` outside the band.
 //!
 //! Conventions: [`Sym`](crate::tensor::Sym) holds tensor components in the order
 //! `(11, 22, 33, 12, 23, 31)`; `grad_v[i][j] = ∂v_j/∂x_i` (the paper's `∇v`); the 6x6 Jacobian
