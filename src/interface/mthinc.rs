@@ -19,13 +19,19 @@
 //! `F(D) = <sigma(2 (a . xi + D))>_cell` increases strictly from 0 to 1, with
 //! `F'(D) = <2 sigma (1 - sigma)>_cell > 0`, and is bracketed by
 //! `atanh(2 phi - 1) -+ sum_k |a_k| / 2`. It is solved by Newton's method safeguarded by
-//! bisection inside that bracket, started from `atanh(2 phi - 1)` (exact for a flat profile).
-//! The cell average is computed ([`CellQuadrature`]) either exactly along the axis of the
-//! largest `|a_k|` (the antiderivative of `sigma(2 y)` is `softplus(2 y) / 2`) with 2-point
-//! Gauss-Legendre in the other axes (the default, after the original MTHINC), or with the
-//! 2 x 2 x 2 Gauss rule the paper uses for (2.46). Everything is written with
-//! `exp(-|t|)`, `ln_1p` and the symmetric form of `sigma`, so no cancellation occurs in either
-//! tail and no NaN or infinity can arise for finite input.
+//! bisection inside that bracket, from a start that is exact at `phi = 1/2` and in the far tail
+//! (two or three evaluations). Since the quadratures are symmetric, `1 - F(D) = F(-D)`: for
+//! `phi > 1/2` the solve is done for `1 - phi` (exact in floating point) and `-D`, so both
+//! tails keep full relative accuracy and no NaN or infinity can arise for finite input.
+//!
+//! The cell average ([`CellQuadrature`]) uses by default the 2 x 2 x 2 Gauss rule the paper
+//! uses for (2.46). Then every point value is `1 / (1 + E w_q)` with `E = exp(-2 D)` and
+//! `w_q = exp(-2 a . xi_q)` fixed per cell: an evaluation costs one exponential. The
+//! reconstruction stores `E` and the per-axis factors `exp(-a_k)` (half-cell shift) and
+//! `exp(-a_k / sqrt 3)` (Gauss shift), so the face averages below need no transcendental
+//! function at all. The alternative rule integrates exactly along the axis of the largest
+//! `|a_k|` (the antiderivative of `sigma(2 y)` is `softplus(2 y) / 2`), after the original
+//! MTHINC.
 //!
 //! A cell with `phi <= tiny`, `phi >= 1 - tiny` or a vanishing gradient is *uniform*: its
 //! reconstruction is the constant `phi` (and `kappa_R tilde`), so its face values equal its
@@ -42,12 +48,15 @@ use crate::Real;
 #[non_exhaustive]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum CellQuadrature {
-    /// Exact integration along the axis of the largest normal component, 2-point Gauss in the
-    /// other axes (4 points in 3D, 2 in 2D). The default.
+    /// The 2 x 2 x 2 Gauss-Legendre rule of the paper's (2.46) (8 points in 3D, 4 in 2D). The
+    /// default: every point value is `1 / (1 + E W_q)` with `E = exp(-2 D)` and fixed weights
+    /// `W_q`, so a Newton iteration costs one exponential.
     #[default]
-    ExactAlongNormal,
-    /// The 2 x 2 x 2 Gauss-Legendre rule of the paper's (2.46) (8 points in 3D, 4 in 2D).
     Gauss2,
+    /// Exact integration along the axis of the largest normal component, 2-point Gauss in the
+    /// other axes (after the original MTHINC); about three times as costly, no more accurate in
+    /// the single-vortex test (see `docs/validation_interface.md`).
+    ExactAlongNormal,
 }
 
 /// Half the offset of the 2-point Gauss-Legendre nodes on `[-1/2, 1/2]`: `1 / (2 sqrt 3)`.
@@ -56,36 +65,40 @@ pub(crate) fn gauss_half<T: Real>() -> T {
     T::lit(0.5 / 3f64.sqrt())
 }
 
-/// `(sigma(t), sigma(t) (1 - sigma(t)), ln(1 + exp(-|t|)))` from one exponential, accurate in
-/// both tails.
+/// `(sigma, 2 sigma (1 - sigma))` of the profile at a point where `exp(-2 y) = w`.
 #[inline(always)]
-pub(crate) fn logistic<T: Real>(t: T) -> (T, T, T) {
-    let e = (-t.abs()).exp();
-    let p = T::one() / (T::one() + e);
-    let s = if t >= T::zero() { p } else { e * p };
-    (s, e * p * p, e.ln_1p())
-}
-
-/// The profile `sigma(2 y)` and `2 sigma (1 - sigma)` at one point.
-#[inline(always)]
-fn point<T: Real>(y: T) -> (T, T) {
-    let (s, ss, _) = logistic(y + y);
-    (s, ss + ss)
+fn from_weight<T: Real>(w: T) -> (T, T) {
+    let s = T::one() / (T::one() + w);
+    (s, (w + w) * s * s)
 }
 
 /// The MTHINC reconstruction of one cell (see the [module docs](self)).
 ///
-/// For a cell with a profile, `a = beta' n h` (per axis) is non-zero; a *uniform* cell has
-/// `a = 0` and carries its cell values.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+/// A cell with a profile stores the slopes `a = beta' n h` (per axis, not all zero), the offset
+/// `D`, and the exponential factors `E = exp(-2 D)`, `exp(-a_k)` and `exp(-a_k / sqrt 3)` from
+/// which every quadrature-point value follows by products. A *uniform* cell has `a = 0` and
+/// carries its cell values.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Reconstruction<T> {
     /// `beta' n_k h_k` per axis; all zero for a uniform cell.
     pub(crate) a: [T; 3],
     /// The offset `D = beta' (n . x_c + d)`, or the cell value of `phi` for a uniform cell.
     pub(crate) d: T,
+    /// `exp(-2 D)`.
+    e: T,
+    /// `exp(-a_k)`: the factor of a half-cell shift along axis k.
+    p: [T; 3],
+    /// `exp(-2 a_k / (2 sqrt 3))`: the factor of a Gauss-point shift along axis k.
+    g: [T; 3],
     /// The coefficient of the convolved profile (2.47) divided by `beta'`, or the cell value of
     /// `kappa_R tilde` for a uniform cell (see [`super::convolved`]).
     pub(crate) c: T,
+}
+
+impl<T: Real> Default for Reconstruction<T> {
+    fn default() -> Self {
+        Self::uniform(T::zero(), T::zero())
+    }
 }
 
 /// What a reconstruction solve reports besides the offset.
@@ -96,8 +109,16 @@ pub struct OffsetSolve<T> {
     /// The cell average of `2 sigma (1 - sigma)` at the solution, `= F'(D)`: the cell average
     /// of `|grad H| / beta'`, needed by the convolved profile (2.47).
     pub mean_slope: T,
-    /// Newton/bisection iterations used.
+    /// Function evaluations (Newton or bisection steps) used.
     pub iterations: u32,
+}
+
+const fn others(axis: usize) -> (usize, usize) {
+    match axis {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    }
 }
 
 impl<T: Real> Reconstruction<T> {
@@ -107,6 +128,9 @@ impl<T: Real> Reconstruction<T> {
         Reconstruction {
             a: [T::zero(); 3],
             d: phi,
+            e: T::one(),
+            p: [T::one(); 3],
+            g: [T::one(); 3],
             c: kappa_tilde,
         }
     }
@@ -156,15 +180,21 @@ impl<T: Real> Reconstruction<T> {
             normal[2] * scale[2],
         ];
         match solve_offset(a, phi, tiny, quadrature) {
-            Some(s) => (
-                Reconstruction {
-                    a,
-                    d: s.offset,
-                    c: T::zero(),
-                },
-                Some(s),
-            ),
+            Some(s) => (Self::with_offset(a, s.offset), Some(s)),
             None => (Reconstruction::uniform(phi, T::zero()), None),
+        }
+    }
+
+    /// The reconstruction with slopes `a` and offset `d` (no constraint solved).
+    pub fn with_offset(a: [T; 3], d: T) -> Self {
+        let gh = gauss_half::<T>() * T::lit(2.0);
+        Reconstruction {
+            a,
+            d,
+            e: (-(d + d)).exp(),
+            p: a.map(|x| (-x).exp()),
+            g: a.map(|x| (-gh * x).exp()),
+            c: T::zero(),
         }
     }
 
@@ -176,53 +206,50 @@ impl<T: Real> Reconstruction<T> {
         self.face_averages(axis, upper).0
     }
 
-    /// `(Hbar, <2 sigma (1 - sigma)>_face)` on a face: the profile and its slope share the
-    /// exponentials. For a uniform cell, `(phi, 0)`.
+    /// `(Hbar, <2 sigma (1 - sigma)>_face)` on a face, from products of the stored factors (no
+    /// transcendental function). For a uniform cell, `(phi, 0)`.
     #[inline(always)]
     pub(crate) fn face_averages(&self, axis: usize, upper: bool) -> (T, T) {
         if self.is_uniform() {
             return (self.d, T::zero());
         }
-        let half = T::lit(0.5);
-        let y0 = if upper {
-            self.d + half * self.a[axis]
+        let base = if upper {
+            self.e * self.p[axis]
         } else {
-            self.d - half * self.a[axis]
+            self.e / self.p[axis]
         };
-        let g = gauss_half::<T>();
-        let (t1, t2) = match axis {
-            0 => (1, 2),
-            1 => (0, 2),
-            _ => (0, 1),
-        };
-        let p = g * self.a[t1];
-        let q = g * self.a[t2];
-        if q == T::zero() {
-            if p == T::zero() {
-                return point(y0);
+        let (t1, t2) = others(axis);
+        let (g1, g2) = (self.g[t1], self.g[t2]);
+        let half = T::lit(0.5);
+        if self.a[t2] == T::zero() {
+            if self.a[t1] == T::zero() {
+                return from_weight(base);
             }
-            let (h1, s1) = point(y0 + p);
-            let (h2, s2) = point(y0 - p);
+            let (h1, s1) = from_weight(base * g1);
+            let (h2, s2) = from_weight(base / g1);
             return (half * (h1 + h2), half * (s1 + s2));
         }
         let quarter = T::lit(0.25);
-        let (h1, s1) = point(y0 + p + q);
-        let (h2, s2) = point(y0 + p - q);
-        let (h3, s3) = point(y0 - p + q);
-        let (h4, s4) = point(y0 - p - q);
+        let (bp, bm) = (base * g1, base / g1);
+        let (h1, s1) = from_weight(bp * g2);
+        let (h2, s2) = from_weight(bp / g2);
+        let (h3, s3) = from_weight(bm * g2);
+        let (h4, s4) = from_weight(bm / g2);
         (quarter * (h1 + h2 + h3 + h4), quarter * (s1 + s2 + s3 + s4))
     }
 }
 
 /// Cell average `F(D)` of `sigma(2 (a . xi + D))` and its derivative `F'(D)`.
-struct CellAverage<T> {
-    /// Axis integrated exactly (largest `|a_k|`), or 3 for full Gauss.
-    exact_axis: usize,
-    /// `|a|` along the exact axis.
-    am: T,
-    /// Offsets of the transverse (or all) Gauss points, `sum_k a_k xi_k`.
-    offsets: [T; 8],
-    count: usize,
+enum CellAverage<T> {
+    /// Gauss points: `F = mean 1 / (1 + exp(-2 D) w_q)`.
+    Gauss { w: [T; 8], count: usize },
+    /// Exact along `am = |a_m|`, Gauss in the others at offsets `o_q = sum a_k xi_k`.
+    Exact {
+        am: T,
+        e2: T,
+        offsets: [T; 4],
+        count: usize,
+    },
 }
 
 impl<T: Real> CellAverage<T> {
@@ -235,28 +262,45 @@ impl<T: Real> CellAverage<T> {
             }
         }
         let am = a[m].abs();
-        // Exact integration along m when the profile varies enough along it for the
-        // difference of softplus values to be accurate.
-        let exact = quadrature == CellQuadrature::ExactAlongNormal && am > T::lit(1e-3);
-        let axes: [usize; 3] = [0, 1, 2];
-        let mut offsets = [T::zero(); 8];
-        let mut count = 1;
-        for &k in axes.iter().filter(|&&k| !(exact && k == m)) {
-            if a[k] == T::zero() {
-                continue;
+        if quadrature == CellQuadrature::ExactAlongNormal && am > T::lit(1e-3) {
+            let mut offsets = [T::zero(); 4];
+            let mut count = 1;
+            for k in (0..3).filter(|&k| k != m && a[k] != T::zero()) {
+                let dk = g * a[k];
+                for j in 0..count {
+                    offsets[j + count] = offsets[j] - dk;
+                    offsets[j] += dk;
+                }
+                count *= 2;
             }
-            let dk = g * a[k];
+            return CellAverage::Exact {
+                am,
+                e2: (-(am + am)).exp(),
+                offsets,
+                count,
+            };
+        }
+        let mut w = [T::one(); 8];
+        let mut count = 1;
+        for k in (0..3).filter(|&k| a[k] != T::zero()) {
+            let f = (-(g + g) * a[k]).exp();
             for j in 0..count {
-                offsets[j + count] = offsets[j] - dk;
-                offsets[j] += dk;
+                w[j + count] = w[j] / f;
+                w[j] *= f;
             }
             count *= 2;
         }
-        CellAverage {
-            exact_axis: if exact { m } else { 3 },
-            am,
-            offsets,
-            count,
+        CellAverage::Gauss { w, count }
+    }
+
+    /// `mean_q w_q^-1`, the lower-tail factor: `F(D) ~ exp(2 D) mean w^-1` as `D -> -inf`.
+    fn tail_factor(&self) -> Option<T> {
+        match self {
+            CellAverage::Gauss { w, count } => {
+                let s = w[..*count].iter().fold(T::zero(), |s, &x| s + T::one() / x);
+                Some(s / T::from_usize(*count).unwrap_or(T::one()))
+            }
+            CellAverage::Exact { .. } => None,
         }
     }
 
@@ -265,29 +309,56 @@ impl<T: Real> CellAverage<T> {
     fn eval(&self, d: T) -> (T, T) {
         let mut f = T::zero();
         let mut fp = T::zero();
-        if self.exact_axis < 3 {
-            // int_{-1/2}^{1/2} sigma(2 (am xi + z)) dxi
-            //   = (softplus(2 z + am) - softplus(2 z - am)) / (2 am)
-            let am = self.am;
-            for &o in &self.offsets[..self.count] {
-                let z2 = (o + d) * T::lit(2.0);
-                let (sp, _, lp) = logistic(z2 + am);
-                let (sm, _, lm) = logistic(z2 - am);
-                let hi = (z2 + am).max(T::zero()) + lp;
-                let lo = (z2 - am).max(T::zero()) + lm;
-                f += hi - lo;
-                fp += sp - sm;
+        let one = T::one();
+        match self {
+            CellAverage::Gauss { w, count } => {
+                let e = (-(d + d)).exp();
+                for &x in &w[..*count] {
+                    let (h, s) = from_weight(e * x);
+                    f += h;
+                    fp += s;
+                }
+                let inv = one / T::from_usize(*count).unwrap_or(one);
+                (f * inv, fp * inv)
             }
-            let w = T::one() / (T::from_usize(self.count).unwrap_or(T::one()) * am);
-            (f * w * T::lit(0.5), fp * w)
-        } else {
-            for &o in &self.offsets[..self.count] {
-                let (h, s) = point(o + d);
-                f += h;
-                fp += s;
+            CellAverage::Exact {
+                am,
+                e2,
+                offsets,
+                count,
+            } => {
+                // int_{-1/2}^{1/2} sigma(2 (am xi + z)) dxi = (softplus(x1) - softplus(x0)) / (2 am)
+                // with x0 = 2 z - am, x1 = 2 z + am; the difference of softplus values is
+                // formed with one logarithm and no cancellation; its derivative in D is
+                // sigma(x1) - sigma(x0) over am.
+                let am = *am;
+                for &o in &offsets[..*count] {
+                    let x0 = (o + d) * T::lit(2.0) - am;
+                    let x1 = x0 + am + am;
+                    let (diff, slope) = if x0 >= T::zero() {
+                        let e0 = (-x0).exp();
+                        let e1 = e0 * *e2;
+                        let den = (one + e0) * (one + e1);
+                        (am + am + ((e1 - e0) / (one + e0)).ln_1p(), (e0 - e1) / den)
+                    } else if x1 <= T::zero() {
+                        let e1 = x1.exp();
+                        let e0 = e1 * *e2;
+                        let den = (one + e0) * (one + e1);
+                        (((e1 - e0) / (one + e0)).ln_1p(), (e1 - e0) / den)
+                    } else {
+                        let e1 = (-x1).exp();
+                        let e0 = x0.exp();
+                        (
+                            x1 + ((one + e1) / (one + e0)).ln(),
+                            one / (one + e1) - e0 / (one + e0),
+                        )
+                    };
+                    f += diff;
+                    fp += slope;
+                }
+                let w = one / (T::from_usize(*count).unwrap_or(one) * am);
+                (f * w * T::lit(0.5), fp * w)
             }
-            let w = T::one() / T::from_usize(self.count).unwrap_or(T::one());
-            (f * w, fp * w)
         }
     }
 }
@@ -315,11 +386,14 @@ pub fn solve_offset<T: Real>(
     // where F is computed with full relative accuracy (1 - phi is exact for phi >= 1/2).
     let flip = phi > T::lit(0.5);
     let phi = if flip { T::one() - phi } else { phi };
-    let d0 = T::lit(0.5) * (phi / (T::one() - phi)).ln();
+    let logit = T::lit(0.5) * (phi / (T::one() - phi)).ln();
     let half = T::lit(0.5) * asum;
-    let mut lo = d0 - half;
-    let mut hi = d0 + half;
-    let mut d = d0;
+    let mut lo = logit - half;
+    let mut hi = logit + half;
+    let mut d = initial_offset(&avg, a, phi, logit);
+    if !(d > lo && d < hi) {
+        d = logit;
+    }
     let tol = T::lit(4.0) * T::eps();
     let mut slope = T::zero();
     let mut it = 0;
@@ -338,8 +412,9 @@ pub fn solve_offset<T: Real>(
         }
         let step = r / fp;
         let scale = tol * (T::one() + d.abs());
-        if step.abs() <= scale {
-            // Converged: the Newton correction is below the resolution of D.
+        // Newton converges quadratically with |F''/F'| <= 2: once 2 step^2 is below the
+        // resolution of D, this correction is the last one.
+        if T::lit(2.0) * step * step <= scale {
             d -= step;
             break;
         }
@@ -357,6 +432,27 @@ pub fn solve_offset<T: Real>(
         mean_slope: slope,
         iterations: it,
     })
+}
+
+/// Starting value of the offset for `phi <= 1/2`. For the Gauss rule: `logit(phi) / 2` (exact
+/// at `phi = 1/2`) corrected towards the exact lower-tail value `ln(phi / mean w^-1) / 2` in
+/// proportion to `1 - 2 phi`. For the exact rule: the exact solution for a profile varying along
+/// one axis with slope `|a|`.
+#[inline(always)]
+fn initial_offset<T: Real>(avg: &CellAverage<T>, a: [T; 3], phi: T, logit: T) -> T {
+    let half = T::lit(0.5);
+    if let Some(m) = avg.tail_factor() {
+        return logit - half * m.ln() * (T::one() - phi - phi);
+    }
+    let m = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    if !(m > T::lit(1e-3)) {
+        return logit;
+    }
+    let two = T::lit(2.0);
+    let num = (two * m * phi).exp_m1();
+    let den = -(-two * m * (T::one() - phi)).exp_m1();
+    let d = half * (num.ln() - m - den.ln());
+    if d.is_finite() { d } else { logit }
 }
 
 /// The cell average of `H = sigma(2 (a . xi + D))` by the given quadrature (for checks).
@@ -410,11 +506,7 @@ mod tests {
     #[test]
     fn face_average_of_a_flat_normal_profile() {
         // Along x only: face value is sigma(2 (D +- a/2)).
-        let r = Reconstruction {
-            a: [1.0f64, 0.0, 0.0],
-            d: 0.2,
-            c: 0.0,
-        };
+        let r = Reconstruction::with_offset([1.0f64, 0.0, 0.0], 0.2);
         let s = |t: f64| 1.0 / (1.0 + (-t).exp());
         assert!((r.face_average(0, true) - s(2.0 * 0.7)).abs() < 1e-15);
         assert!((r.face_average(0, false) - s(2.0 * -0.3)).abs() < 1e-15);
