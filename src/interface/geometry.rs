@@ -33,12 +33,14 @@
 //! curvatures an order of magnitude more accurate (see `docs/validation_interface.md`). Normals
 //! and curvatures do not depend on the scale of the level function, so `beta` is not needed here.
 //!
-//! Curvature: for the level function `f` (`phi` or `psi`) with gradient `g` and Hessian `S`,
-//! `grad n = S . P / |g|`, so `kappa = -P . S . P / |g|`. Youngs' scheme instead differentiates
-//! node normals (each from the 8 cells around a node) across the cell, the classic CSF estimate.
+//! Curvature: for `psi` with gradient `g` and Hessian `S` (second- or fourth-order central
+//! differences), `grad n = S . P / |g|`, so `kappa = -P . S . P / |g|`. Youngs' scheme
+//! differentiates node normals (each from the 8 cells around a node) across the cell, the
+//! classic CSF estimate; the central scheme differentiates the neighbours' unit normals.
 //!
 //! Every per-cell function reads a stencil around a storage index (ghosts of `phi` filled, see
-//! [`Field::fill_ghosts`]): radius 1 for all schemes but [`NormalScheme::Atanh4`] (radius 2).
+//! [`Field::fill_ghosts`]): radius 1 for all schemes but [`NormalScheme::Atanh4`] (radius 2);
+//! the central curvature also has radius 2 ([`NormalScheme::curvature_radius`]).
 
 use crate::Real;
 use crate::grid::{Field, Grid};
@@ -52,7 +54,8 @@ pub enum NormalScheme {
     /// Youngs' weighted stencil on `phi` (the paper's choice): central differences smoothed by
     /// `(1, 2, 1) / 4` weights in the transverse directions; curvature from node normals.
     Youngs,
-    /// Plain second-order central differences of `phi`.
+    /// Plain second-order central differences of `phi`; curvature from central differences of
+    /// the neighbours' unit normals (stencil radius 2).
     CentralPhi,
     /// Second-order central differences of `psi = atanh(2 phi - 1)`.
     Atanh2,
@@ -71,10 +74,18 @@ impl NormalScheme {
         NormalScheme::Atanh4,
     ];
 
-    /// Stencil radius in cells of the normal and curvature estimates.
+    /// Stencil radius in cells of the normal estimate.
     pub fn radius(self) -> usize {
         match self {
             NormalScheme::Atanh4 => 2,
+            _ => 1,
+        }
+    }
+
+    /// Stencil radius in cells of the curvature estimate.
+    pub fn curvature_radius(self) -> usize {
+        match self {
+            NormalScheme::Atanh4 | NormalScheme::CentralPhi => 2,
             _ => 1,
         }
     }
@@ -335,6 +346,21 @@ fn level_curvature<T: Real, F: Fn(isize) -> T>(
         NormalScheme::Youngs => {
             let (n, _) = unit(youngs_gradient(f, s), hm)?;
             (n, youngs_grad_n(f, s))
+        }
+        NormalScheme::CentralPhi => {
+            // phi is far from linear across the band: difference the unit normals of the
+            // neighbours (radius 2) rather than phi's Hessian.
+            let (n, _) = unit(central_grad_hess(f, s, false, false).0, hm)?;
+            let mut gn = [[T::zero(); 3]; 3];
+            for (i, row) in gn.iter_mut().enumerate().take(s.axes()) {
+                let si = s.st[i];
+                let up = unit(central_grad_hess(&|o| f(o + si), s, false, false).0, hm)?.0;
+                let dn = unit(central_grad_hess(&|o| f(o - si), s, false, false).0, hm)?.0;
+                for j in 0..3 {
+                    row[j] = (up[j] - dn[j]) / (T::lit(2.0) * s.h[i]);
+                }
+            }
+            (n, gn)
         }
         _ => {
             let fourth = scheme == NormalScheme::Atanh4;
