@@ -76,7 +76,7 @@ fn design_guide_numbers_at_radius_8() {
     for (sc, x) in NormalScheme::ALL.iter().zip(&e) {
         eprintln!("{:>12}: {:.2} deg, {:.1} %", sc.name(), x.0, 100.0 * x.1);
     }
-    let [cen, you, a2, a4] = [e[1], e[0], e[2], e[3]];
+    let [cen, you, a2, a4, dec] = [e[1], e[0], e[2], e[3], e[4]];
     assert!(cen.0 > 5.0 && cen.0 < 12.0, "central phi angle {}", cen.0);
     assert!(you.0 > 2.0 && you.0 < 6.0, "youngs angle {}", you.0);
     assert!(a2.0 < 0.6, "atanh2 angle {}", a2.0);
@@ -84,6 +84,8 @@ fn design_guide_numbers_at_radius_8() {
     // The inverse-tanh constructions are an order of magnitude better than Youngs.
     assert!(a4.0 < you.0 / 8.0 && a4.1 < you.1 / 2.0);
     assert!(a2.1 < 0.05 && a4.1 < 0.03, "curvature {} {}", a2.1, a4.1);
+    // The deconvolved level field: another factor of four in angle, eight in curvature.
+    assert!(dec.0 < 0.1 && dec.1 < 0.005, "deconvolved {dec:?}");
 }
 
 /// At radius 16 cells no construction has a much larger error; the phi-based ones stay at
@@ -162,7 +164,7 @@ fn normal_and_curvature_study() {
                         )
                     })
                     .unwrap_or_default();
-                line += &format!(" {:>6.3} / {:>5.2} {:>9}", x.0, 100.0 * x.1, ord);
+                line += &format!(" {:>6.3} / {:>5.2} {:>11}", x.0, 100.0 * x.1, ord);
             }
             println!("{line}");
             prev = Some(e);
