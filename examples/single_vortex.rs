@@ -1,0 +1,524 @@
+//! Sec. 3.1 of the paper: MTHINC advection of `phi` and of the convolved reference curvature
+//! `kappa_R tilde` in a time-reversing single-vortex flow (Table 1, Figs. 3-4).
+//!
+//! An ellipse `(x-0.5)^2/a^2 + (y-0.75)^2/b^2 = 1`, `a = 0.15` (along x), `b = 0.7 a`, in the
+//! periodic unit square is advected by the stream function
+//! `Psi = (1/pi) sin^2(pi x) S(pi y) cos(pi t / T)`, `T = 1`, with `S = cos^2` as printed in the
+//! paper (`--stream cos`, default) or the classic `S = sin^2` (`--stream sin`). Face velocities
+//! are differences of `Psi` at cell nodes, so the discrete divergence vanishes to round-off. The
+//! time step is the largest with `max CFL <= 0.25` that divides `T`. At `t = T` the exact
+//! solution is the initial field; errors (3.1) of `phi` and of `kappa_R delta_bar =
+//! kappa_R tilde * dx` are printed with their orders next to the paper's Table 1.
+//!
+//! Flags: `--n N` (one resolution; default: 32, 64, 128, 256), `--stream cos|sin`,
+//! `--normals youngs|central_phi|atanh2|atanh4` (default youngs, the paper's),
+//! `--quadrature exact|gauss2`, `--beta B`, `--cfl C`, `--tiny E` (uniform-cell threshold), `--out DIR` (default
+//! `out/single_vortex`; SVG contour plots of Fig. 3 and curvature profiles of Fig. 4),
+//! `--no-plots`.
+//!
+//! Run: `cargo run --release --example single_vortex -- --n 128`.
+
+use eulermembrane::grid::{Field, Grid, VectorField};
+use eulermembrane::interface::shapes::{Ellipse, Smoothing, smoothed_fields};
+use eulermembrane::interface::{AdvectionParams, Advector, CellQuadrature, NormalScheme};
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+
+/// The paper's Table 1: (N, L1, L2, Linf) of phi and of kappa_R delta_bar.
+const PAPER_PHI: [(usize, f64, f64, f64); 4] = [
+    (32, 2.67e-3, 9.82e-3, 1.02e-1),
+    (64, 1.01e-3, 5.15e-3, 7.54e-2),
+    (128, 4.35e-4, 3.20e-3, 6.10e-2),
+    (256, 2.03e-4, 2.13e-3, 5.96e-2),
+];
+const PAPER_KAPPA: [(usize, f64, f64, f64); 4] = [
+    (32, 5.66e-2, 2.12e-1, 2.01),
+    (64, 2.03e-2, 1.09e-1, 1.56),
+    (128, 6.80e-3, 5.22e-2, 1.05),
+    (256, 2.39e-3, 2.49e-2, 6.88e-1),
+];
+
+struct Opts {
+    ns: Vec<usize>,
+    sin: bool,
+    normals: NormalScheme,
+    quadrature: CellQuadrature,
+    beta: f64,
+    cfl: f64,
+    tiny: f64,
+    out: String,
+    plots: bool,
+}
+
+fn parse() -> Result<Opts, String> {
+    let mut o = Opts {
+        ns: vec![32, 64, 128, 256],
+        sin: false,
+        normals: NormalScheme::Youngs,
+        quadrature: CellQuadrature::Gauss2,
+        beta: 1.0,
+        cfl: 0.25,
+        tiny: eulermembrane::interface::advect::default_tiny(),
+        out: "out/single_vortex".into(),
+        plots: true,
+    };
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut i = 0;
+    while i < args.len() {
+        let val = |k: usize| {
+            args.get(k + 1)
+                .cloned()
+                .ok_or(format!("{} needs a value", args[k]))
+        };
+        match args[i].as_str() {
+            "--n" => {
+                let n: usize = val(i)?.parse().map_err(|e| format!("--n: {e}"))?;
+                if n < 8 {
+                    return Err("--n: at least 8".into());
+                }
+                o.ns = vec![n];
+            }
+            "--stream" => {
+                o.sin = match val(i)?.as_str() {
+                    "sin" => true,
+                    "cos" => false,
+                    s => return Err(format!("--stream: cos or sin, not {s}")),
+                }
+            }
+            "--normals" => {
+                o.normals = NormalScheme::from_name(&val(i)?).map_err(|e| e.to_string())?
+            }
+            "--quadrature" => {
+                o.quadrature = match val(i)?.as_str() {
+                    "exact" => CellQuadrature::ExactAlongNormal,
+                    "gauss2" => CellQuadrature::Gauss2,
+                    s => return Err(format!("--quadrature: exact or gauss2, not {s}")),
+                }
+            }
+            "--beta" => o.beta = val(i)?.parse().map_err(|e| format!("--beta: {e}"))?,
+            "--cfl" => o.cfl = val(i)?.parse().map_err(|e| format!("--cfl: {e}"))?,
+            "--tiny" => o.tiny = val(i)?.parse().map_err(|e| format!("--tiny: {e}"))?,
+            "--out" => o.out = val(i)?,
+            "--no-plots" => {
+                o.plots = false;
+                i += 1;
+                continue;
+            }
+            s => return Err(format!("unknown flag {s}")),
+        }
+        i += 2;
+    }
+    if !(o.cfl > 0.0 && o.cfl <= 1.0) {
+        return Err("--cfl: in (0, 1]".into());
+    }
+    Ok(o)
+}
+
+/// Errors (3.1): L1, L2, Linf.
+fn norms(g: &Grid<f64>, a: &Field<f64>, b: &Field<f64>, scale: f64) -> [f64; 3] {
+    let (mut l1, mut l2, mut li) = (0.0, 0.0, 0.0f64);
+    for (i, j, k) in g.cells() {
+        let id = g.idx_u(i, j, k);
+        let e = ((a.data[id] - b.data[id]) * scale).abs();
+        l1 += e;
+        l2 += e * e;
+        li = li.max(e);
+    }
+    let m = g.cell_count() as f64;
+    [l1 / m, (l2 / m).sqrt(), li]
+}
+
+struct Run {
+    n: usize,
+    phi: [f64; 3],
+    kappa: [f64; 3],
+    drift: f64,
+    min: f64,
+    max: f64,
+}
+
+fn run(n: usize, o: &Opts) -> Result<Run, Box<dyn std::error::Error>> {
+    let h = 1.0 / n as f64;
+    let g = Grid::<f64>::periodic([n, n, 1], [0.0; 3], [1.0, 1.0, h])?;
+    let a = 0.15;
+    let ellipse = Ellipse::new([0.5, 0.75], [a, 0.7 * a])?;
+    let smoothing = Smoothing {
+        beta: o.beta,
+        points: 4,
+    };
+    let (phi0, kt0) = smoothed_fields(&g, &ellipse, &smoothing)?;
+    let (mut phi, mut kt) = (phi0.clone(), kt0.clone());
+
+    // Stream function at nodes (x_i, y_j) = (i h, j h); face velocities are its differences.
+    let psi = |i: isize, j: isize| {
+        let (x, y) = (i as f64 * h, j as f64 * h);
+        let s = if o.sin {
+            (PI * y).sin().powi(2)
+        } else {
+            (PI * y).cos().powi(2)
+        };
+        (PI * x).sin().powi(2) * s / PI
+    };
+    let mut v0 = VectorField::zeros(&g);
+    for (i, j, k) in g.cells() {
+        let (i, j) = (i as isize, j as isize);
+        let id = g.idx(i, j, k as isize);
+        v0.c[0].data[id] = (psi(i, j + 1) - psi(i, j)) / h;
+        v0.c[1].data[id] = -(psi(i + 1, j) - psi(i, j)) / h;
+    }
+    v0.fill_ghosts(&g);
+    let umax = v0.c[0]
+        .data
+        .iter()
+        .chain(&v0.c[1].data)
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let t_end = 1.0;
+    let steps = (t_end * umax / (o.cfl * h)).ceil() as usize;
+    let dt = t_end / steps as f64;
+
+    let params = AdvectionParams {
+        beta: o.beta,
+        normals: o.normals,
+        quadrature: o.quadrature,
+        tiny: o.tiny,
+    };
+    let mut adv = Advector::new(&g, params, true)?;
+    let mut v = v0.clone();
+    let mass0 = phi0.interior_sum(&g);
+    let mut snaps = vec![(0.0, phi0.clone(), kt0.clone())];
+    let t0 = std::time::Instant::now();
+    for s in 0..steps {
+        let t = s as f64 * dt;
+        let c = (PI * t / t_end).cos();
+        for d in 0..2 {
+            for (x, y) in v.c[d].data.iter_mut().zip(&v0.c[d].data) {
+                *x = c * y;
+            }
+        }
+        adv.step(&g, &v, dt, &mut phi, Some(&mut kt))?;
+        if 2 * (s + 1) == steps {
+            snaps.push((0.5 * t_end, phi.clone(), kt.clone()));
+        }
+        if (s + 1) % (steps / 4).max(1) == 0 {
+            eprintln!(
+                "n={n} step {}/{steps} t={:.3} dt={dt:.3e} mass_drift={:.2e} ({:.1} s)",
+                s + 1,
+                (s + 1) as f64 * dt,
+                ((phi.interior_sum(&g) - mass0) / mass0).abs(),
+                t0.elapsed().as_secs_f64()
+            );
+        }
+    }
+    snaps.push((t_end, phi.clone(), kt.clone()));
+    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (i, j, k) in g.cells() {
+        let x = phi.data[g.idx_u(i, j, k)];
+        min = min.min(x);
+        max = max.max(x);
+    }
+    let r = Run {
+        n,
+        phi: norms(&g, &phi, &phi0, 1.0),
+        kappa: norms(&g, &kt, &kt0, h),
+        drift: ((phi.interior_sum(&g) - mass0) / mass0).abs(),
+        min,
+        max,
+    };
+    if o.plots {
+        plots(&g, &snaps, o, n)?;
+    }
+    Ok(r)
+}
+
+fn main() {
+    let o = match parse() {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::exit(2);
+        }
+    };
+    let mut runs = Vec::new();
+    for &n in &o.ns {
+        match run(n, &o) {
+            Ok(r) => {
+                println!(
+                    "RESULT n={} l1_phi={:.3e} l2_phi={:.3e} linf_phi={:.3e} l1_kappa={:.3e} \
+                     l2_kappa={:.3e} linf_kappa={:.3e} mass_drift={:.2e} phi_min={:.3e} \
+                     phi_max={:.12}",
+                    r.n,
+                    r.phi[0],
+                    r.phi[1],
+                    r.phi[2],
+                    r.kappa[0],
+                    r.kappa[1],
+                    r.kappa[2],
+                    r.drift,
+                    r.min,
+                    r.max
+                );
+                runs.push(r);
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                std::process::exit(1);
+            }
+        }
+    }
+    print_table(&runs, &o);
+}
+
+fn print_table(runs: &[Run], o: &Opts) {
+    println!(
+        "\nSingle vortex, stream {}, normals {}, after one period (paper's Table 1 in brackets)",
+        if o.sin { "sin^2" } else { "cos^2" },
+        o.normals.name()
+    );
+    for (name, pick, paper) in [
+        ("phi", 0usize, &PAPER_PHI),
+        ("kappa_R delta_bar", 1, &PAPER_KAPPA),
+    ] {
+        println!("{name}");
+        println!(
+            "{:>5} {:>22} {:>6} {:>22} {:>6} {:>22} {:>6}",
+            "N", "L1 (paper)", "order", "L2 (paper)", "order", "Linf (paper)", "order"
+        );
+        for (k, r) in runs.iter().enumerate() {
+            let e = if pick == 0 { r.phi } else { r.kappa };
+            let p = paper.iter().find(|p| p.0 == r.n);
+            let mut line = format!("{:>5}", r.n);
+            for c in 0..3 {
+                let pv = p.map(|p| [p.1, p.2, p.3][c]);
+                let cell = match pv {
+                    Some(pv) => format!("{:.2e} ({:.2e})", e[c], pv),
+                    None => format!("{:.2e}", e[c]),
+                };
+                let ord = if k > 0 && runs[k - 1].n * 2 == r.n {
+                    let pe = if pick == 0 {
+                        runs[k - 1].phi
+                    } else {
+                        runs[k - 1].kappa
+                    };
+                    format!("{:.2}", (pe[c] / e[c]).log2())
+                } else {
+                    "-".into()
+                };
+                let _ = write!(line, " {cell:>22} {ord:>6}");
+            }
+            println!("{line}");
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Plots: a minimal SVG writer (to be replaced by `crate::io::plot` when it lands).
+
+/// Contour segments of a cell-centred field at `level` by marching squares on the dual grid.
+fn contour(g: &Grid<f64>, f: &Field<f64>, level: f64) -> Vec<[[f64; 2]; 2]> {
+    let n = g.n();
+    let h = g.h();
+    let mut segs = Vec::new();
+    let c = |i: usize, j: usize| f.data[g.idx_u(i % n[0], j % n[1], 0)] - level;
+    for j in 0..n[1] - 1 {
+        for i in 0..n[0] - 1 {
+            let v = [c(i, j), c(i + 1, j), c(i + 1, j + 1), c(i, j + 1)];
+            let p = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+            let mut pts = Vec::new();
+            for e in 0..4 {
+                let (a, b) = (e, (e + 1) % 4);
+                if (v[a] < 0.0) != (v[b] < 0.0) {
+                    let t = v[a] / (v[a] - v[b]);
+                    let q = [
+                        p[a][0] + t * (p[b][0] - p[a][0]),
+                        p[a][1] + t * (p[b][1] - p[a][1]),
+                    ];
+                    pts.push([
+                        (i as f64 + 0.5 + q[0]) * h[0],
+                        (j as f64 + 0.5 + q[1]) * h[1],
+                    ]);
+                }
+            }
+            if pts.len() == 2 {
+                segs.push([pts[0], pts[1]]);
+            } else if pts.len() == 4 {
+                segs.push([pts[0], pts[1]]);
+                segs.push([pts[2], pts[3]]);
+            }
+        }
+    }
+    segs
+}
+
+struct Svg {
+    body: String,
+    w: f64,
+    h: f64,
+}
+
+impl Svg {
+    fn new(w: f64, h: f64) -> Self {
+        Svg {
+            body: String::new(),
+            w,
+            h,
+        }
+    }
+    fn line(&mut self, a: [f64; 2], b: [f64; 2], style: &str) {
+        let _ = writeln!(
+            self.body,
+            r#"<line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" {style}/>"#,
+            a[0], a[1], b[0], b[1]
+        );
+    }
+    fn text(&mut self, x: f64, y: f64, s: &str) {
+        let _ = writeln!(
+            self.body,
+            r#"<text x="{x:.1}" y="{y:.1}" font-family="sans-serif" font-size="13">{s}</text>"#
+        );
+    }
+    fn rect(&mut self, x: f64, y: f64, w: f64, h: f64) {
+        let _ = writeln!(
+            self.body,
+            r#"<rect x="{x:.1}" y="{y:.1}" width="{w:.1}" height="{h:.1}" fill="none" stroke="black"/>"#
+        );
+    }
+    fn save(&self, path: &std::path::Path) -> std::io::Result<()> {
+        let s = format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{}"><rect width="100%" height="100%" fill="white"/>{}</svg>"#,
+            self.w, self.h, self.body
+        );
+        std::fs::write(path, s)
+    }
+}
+
+type Snap = (f64, Field<f64>, Field<f64>);
+
+fn plots(g: &Grid<f64>, snaps: &[Snap], o: &Opts, n: usize) -> std::io::Result<()> {
+    let dir = std::path::Path::new(&o.out);
+    std::fs::create_dir_all(dir)?;
+    // Fig. 3: contours at t = 0, T/2, T over [0.2, 0.8] x [0.35, 0.95] (cos) or the unit square.
+    let (x0, x1, y0, y1) = if o.sin {
+        (0.0, 1.0, 0.0, 1.0)
+    } else {
+        (0.2, 0.8, 0.35, 0.95)
+    };
+    let px = 300.0;
+    let mut svg = Svg::new(3.0 * (px + 20.0) + 20.0, px + 60.0);
+    let styles = [
+        ("0.05", r#"stroke="blue" stroke-dasharray="2,2""#),
+        ("0.5", r#"stroke="black""#),
+        ("0.95", r#"stroke="red" stroke-dasharray="6,3""#),
+    ];
+    for (p, (t, phi, _)) in snaps.iter().enumerate() {
+        let ox = 20.0 + p as f64 * (px + 20.0);
+        let oy = 30.0;
+        svg.rect(ox, oy, px, px);
+        svg.text(ox, oy - 8.0, &format!("N={n}, t={t:.2}"));
+        let map = |q: [f64; 2]| {
+            [
+                ox + (q[0] - x0) / (x1 - x0) * px,
+                oy + (1.0 - (q[1] - y0) / (y1 - y0)) * px,
+            ]
+        };
+        for (lvl, style) in styles {
+            for s in contour(g, phi, lvl.parse().unwrap_or(0.5)) {
+                let inside = |q: [f64; 2]| q[0] >= x0 && q[0] <= x1 && q[1] >= y0 && q[1] <= y1;
+                if inside(s[0]) && inside(s[1]) {
+                    svg.line(
+                        map(s[0]),
+                        map(s[1]),
+                        &format!(r#"{style} stroke-width="1""#),
+                    );
+                }
+            }
+        }
+    }
+    svg.text(
+        20.0,
+        px + 55.0,
+        "phi = 0.05 (blue dotted), 0.5 (black), 0.95 (red dashed)",
+    );
+    svg.save(&dir.join(format!("contours_n{n}.svg")))?;
+
+    // Fig. 4: kappa_R delta_bar along the phi = 0.5 contour vs the polar angle about the centre.
+    let h = g.h()[0];
+    let sample = |phi: &Field<f64>, kt: &Field<f64>| -> Vec<[f64; 2]> {
+        let mut pts: Vec<[f64; 2]> = contour(g, phi, 0.5)
+            .iter()
+            .map(|s| {
+                let m = [0.5 * (s[0][0] + s[1][0]), 0.5 * (s[0][1] + s[1][1])];
+                let val = bilinear(g, kt, m) * h;
+                let th = (m[1] - 0.75).atan2(m[0] - 0.5).to_degrees();
+                [th, val]
+            })
+            .collect();
+        pts.sort_by(|a, b| a[0].total_cmp(&b[0]));
+        pts
+    };
+    let first = &snaps[0];
+    let last = &snaps[snaps.len() - 1];
+    let curves = [
+        ("t=0 (exact)", sample(&first.1, &first.2), "black"),
+        ("t=T", sample(&last.1, &last.2), "red"),
+    ];
+    let ymax = curves
+        .iter()
+        .flat_map(|c| c.1.iter().map(|p| p[1]))
+        .fold(0.0f64, f64::max)
+        * 1.1;
+    let (w, hh) = (640.0, 360.0);
+    let mut svg = Svg::new(w + 80.0, hh + 80.0);
+    let (ox, oy) = (60.0, 20.0);
+    svg.rect(ox, oy, w, hh);
+    let map = |p: [f64; 2]| {
+        [
+            ox + (p[0] + 180.0) / 360.0 * w,
+            oy + (1.0 - p[1] / ymax) * hh,
+        ]
+    };
+    for (k, (name, pts, color)) in curves.iter().enumerate() {
+        for s in pts.windows(2) {
+            svg.line(
+                map(s[0]),
+                map(s[1]),
+                &format!(r#"stroke="{color}" stroke-width="1.5""#),
+            );
+        }
+        svg.line(
+            [ox + 20.0, oy + 20.0 + 18.0 * k as f64],
+            [ox + 50.0, oy + 20.0 + 18.0 * k as f64],
+            &format!(r#"stroke="{color}" stroke-width="2""#),
+        );
+        svg.text(ox + 56.0, oy + 25.0 + 18.0 * k as f64, name);
+    }
+    for k in 0..=4 {
+        let yv = ymax * k as f64 / 4.0;
+        svg.text(5.0, map([0.0, yv])[1] + 4.0, &format!("{yv:.2}"));
+        let a = -180.0 + 90.0 * k as f64;
+        svg.text(map([a, 0.0])[0] - 10.0, oy + hh + 18.0, &format!("{a:.0}"));
+    }
+    svg.text(
+        ox + 150.0,
+        oy + hh + 45.0,
+        &format!("kappa_R delta_bar on phi = 0.5 vs polar angle (deg), N = {n}"),
+    );
+    svg.save(&dir.join(format!("kappa_profile_n{n}.svg")))
+}
+
+fn bilinear(g: &Grid<f64>, f: &Field<f64>, x: [f64; 2]) -> f64 {
+    let h = g.h();
+    let n = g.n();
+    let fx = x[0] / h[0] - 0.5;
+    let fy = x[1] / h[1] - 0.5;
+    let (i, j) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - i, fy - j);
+    let at = |a: f64, b: f64| {
+        let ii = (a as isize).rem_euclid(n[0] as isize);
+        let jj = (b as isize).rem_euclid(n[1] as isize);
+        f.data[g.idx(ii, jj, 0)]
+    };
+    (1.0 - tx) * (1.0 - ty) * at(i, j)
+        + tx * (1.0 - ty) * at(i + 1.0, j)
+        + (1.0 - tx) * ty * at(i, j + 1.0)
+        + tx * ty * at(i + 1.0, j + 1.0)
+}
