@@ -257,6 +257,7 @@ fn youngs_gradient<T: Real, F: Fn(isize) -> T>(f: &F, s: &Stencil<T>) -> Vec3<T>
 
 /// Gradient and (optionally) Hessian of the level function by central differences of order 2
 /// or 4.
+#[allow(clippy::needless_range_loop)] // symmetric fill of hm[d][e] and hm[e][d]
 #[inline(always)]
 fn central_grad_hess<T: Real, F: Fn(isize) -> T>(
     f: &F,
@@ -441,7 +442,7 @@ fn youngs_grad_n<T: Real, F: Fn(isize) -> T>(f: &F, s: &Stencil<T>) -> [[T; 3]; 
                     *gd = T::from_isize(sgn[d]).unwrap_or(T::one()) * sum / (count * s.h[d]);
                 }
                 let m = norm(&g);
-                if !(m > T::zero()) {
+                if m.is_nan() || m <= T::zero() {
                     continue;
                 }
                 let w = if s.planar { T::lit(0.5) } else { quarter };
