@@ -142,8 +142,8 @@ fn normal_and_curvature_study() {
     ] {
         println!("\n{name}: max normal angle (deg) / max relative mean-curvature error (%)");
         println!(
-            "{:>5} {:>22} {:>22} {:>22} {:>22}",
-            "N", "youngs", "central_phi", "atanh2", "atanh4"
+            "{:>5} {:>25} {:>25} {:>25} {:>25} {:>25}",
+            "N", "youngs", "central_phi", "atanh2", "atanh4", "deconvolved"
         );
         let mut prev: Option<Vec<(f64, f64)>> = None;
         for d in [16.0, 32.0, 64.0, 128.0] {

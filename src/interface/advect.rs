@@ -18,7 +18,7 @@
 //! 2. *Reconstruction* (time level n): the cells of the interior and of the first ghost layer
 //!    with `tiny < phi < 1 - tiny` form the band (a list rebuilt each step, with a slot map from
 //!    storage index to band entry). Each band cell gets its normal (the chosen
-//!    [`NormalScheme`](super::NormalScheme)), its offset (2.43) and its profile coefficient
+//!    [`NormalScheme`]), its offset (2.43) and its profile coefficient
 //!    (2.47), stored once per cell; this is the only place where transcendental functions are
 //!    evaluated, so the cost grows with the interface area, not with the box.
 //! 3. *Update*: each interior cell evaluates its face fluxes from the upwind cell (a band cell's

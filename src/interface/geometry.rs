@@ -41,6 +41,13 @@
 //! Every per-cell function reads a stencil around a storage index (ghosts of `phi` filled, see
 //! [`Field::fill_ghosts`]): radius 1 for all schemes but [`NormalScheme::Atanh4`] (radius 2);
 //! the central curvature also has radius 2 ([`NormalScheme::curvature_radius`]).
+//!
+//! # Panics
+//!
+//! The per-cell functions index the field like a slice: a storage index whose stencil leaves
+//! the stored array (a ghost cell near the edge of the padding, or a field of another grid)
+//! panics. Interior cells of a field of `grid` are always valid; the field-level methods only
+//! visit those.
 
 use crate::Real;
 use crate::grid::{Field, Grid};
@@ -257,6 +264,7 @@ fn youngs_gradient<T: Real, F: Fn(isize) -> T>(f: &F, s: &Stencil<T>) -> Vec3<T>
 
 /// Gradient and (optionally) Hessian of the level function by central differences of order 2
 /// or 4.
+#[allow(clippy::needless_range_loop)] // symmetric fill of hm[d][e] and hm[e][d]
 #[inline(always)]
 fn central_grad_hess<T: Real, F: Fn(isize) -> T>(
     f: &F,
@@ -441,7 +449,7 @@ fn youngs_grad_n<T: Real, F: Fn(isize) -> T>(f: &F, s: &Stencil<T>) -> [[T; 3]; 
                     *gd = T::from_isize(sgn[d]).unwrap_or(T::one()) * sum / (count * s.h[d]);
                 }
                 let m = norm(&g);
-                if !(m > T::zero()) {
+                if m.is_nan() || m <= T::zero() {
                     continue;
                 }
                 let w = if s.planar { T::lit(0.5) } else { quarter };
@@ -588,7 +596,8 @@ fn fill_psi<T: Real>(grid: &Grid<T>, phi: &Field<T>, psi: &mut Field<T>) {
 
 /// Field-level geometry: caches `psi = atanh(2 phi - 1)` for the inverse-tanh schemes (and the
 /// deconvolved level field) and fills
-/// fields of normals, delta and mean curvature restricted to a [`Band`]. Create it once; its
+/// fields of normals, curvature tensors, mean curvature (and, free function, delta) restricted
+/// to a [`Band`]. Create it once; its
 /// methods allocate nothing.
 ///
 /// ```
@@ -757,6 +766,48 @@ impl<T: Real> Geometry<T> {
                 T::zero()
             }
         });
+    }
+}
+
+impl<T: Real> Geometry<T> {
+    /// Curvature tensors `kappa = -P . grad n . P` at the interior cells of `band` into `out`
+    /// (components in the order of [`crate::tensor`]); zero elsewhere and where the gradient
+    /// vanishes. Ghosts of `out` are not touched.
+    pub fn curvature_tensors(
+        &self,
+        grid: &Grid<T>,
+        phi: &Field<T>,
+        band: Band<T>,
+        out: &mut crate::grid::SymField<T>,
+    ) {
+        let dx = grid.dims()[0];
+        let nx = grid.n()[0];
+        let g0 = crate::grid::GHOST;
+        let [c0, c1, c2, c3, c4, c5] = &mut out.c;
+        c0.data
+            .par_chunks_mut(dx)
+            .zip(c1.data.par_chunks_mut(dx))
+            .zip(c2.data.par_chunks_mut(dx))
+            .zip(c3.data.par_chunks_mut(dx))
+            .zip(c4.data.par_chunks_mut(dx))
+            .zip(c5.data.par_chunks_mut(dx))
+            .enumerate()
+            .for_each(|(row, (((((l0, l1), l2), l3), l4), l5))| {
+                if grid.row_jk(row).is_none() {
+                    return;
+                }
+                for i in g0..g0 + nx {
+                    let idx = row * dx + i;
+                    let k = if band.contains(phi.data[idx]) {
+                        self.curvature(grid, phi, idx)
+                            .map_or([T::zero(); 6], |k| k.tensor)
+                    } else {
+                        [T::zero(); 6]
+                    };
+                    (l0[i], l1[i], l2[i], l3[i], l4[i], l5[i]) =
+                        (k[0], k[1], k[2], k[3], k[4], k[5]);
+                }
+            });
     }
 }
 

@@ -445,7 +445,7 @@ fn initial_offset<T: Real>(avg: &CellAverage<T>, a: [T; 3], phi: T, logit: T) ->
         return logit - half * m.ln() * (T::one() - phi - phi);
     }
     let m = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-    if !(m > T::lit(1e-3)) {
+    if m.is_nan() || m <= T::lit(1e-3) {
         return logit;
     }
     let two = T::lit(2.0);
