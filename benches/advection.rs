@@ -17,9 +17,8 @@ fn setup() -> (Grid<f64>, VectorField<f64>) {
     let n = 64;
     let g = Grid::<f64>::periodic([n; 3], [0.0; 3], [1.0; 3]).unwrap();
     let h = 1.0 / n as f64;
-    let psi = |i: isize, j: isize| {
-        (2.0 * PI * i as f64 * h).sin() * (2.0 * PI * j as f64 * h).cos() / (2.0 * PI)
-    };
+    let psi =
+        |i: isize, j: isize| (2.0 * PI * i as f64 * h).sin() * (2.0 * PI * j as f64 * h).cos() / (2.0 * PI);
     let mut v = VectorField::zeros(&g);
     for (i, j, k) in g.cells() {
         let (i, j) = (i as isize, j as isize);
@@ -40,18 +39,11 @@ fn bench(c: &mut Criterion) {
     group.throughput(Throughput::Elements(g.cell_count() as u64));
     group.sample_size(20);
     for scheme in [NormalScheme::Youngs, NormalScheme::Atanh4] {
-        let params = AdvectionParams {
-            normals: scheme,
-            ..Default::default()
-        };
+        let params = AdvectionParams { normals: scheme, ..Default::default() };
         for curvature in [false, true] {
             let mut adv = Advector::new(&g, params, curvature).unwrap();
             let (mut phi, mut kt) = (phi0.clone(), kt0.clone());
-            let name = format!(
-                "step_{}_{}",
-                scheme.name(),
-                if curvature { "phi_kappa" } else { "phi" }
-            );
+            let name = format!("step_{}_{}", scheme.name(), if curvature { "phi_kappa" } else { "phi" });
             group.bench_function(&name, |b| {
                 b.iter(|| {
                     // Restart from the initial fields so the band does not drift.

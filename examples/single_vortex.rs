@@ -65,11 +65,7 @@ fn parse() -> Result<Opts, String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
     while i < args.len() {
-        let val = |k: usize| {
-            args.get(k + 1)
-                .cloned()
-                .ok_or(format!("{} needs a value", args[k]))
-        };
+        let val = |k: usize| args.get(k + 1).cloned().ok_or(format!("{} needs a value", args[k]));
         match args[i].as_str() {
             "--n" => {
                 let n: usize = val(i)?.parse().map_err(|e| format!("--n: {e}"))?;
@@ -85,9 +81,7 @@ fn parse() -> Result<Opts, String> {
                     s => return Err(format!("--stream: cos or sin, not {s}")),
                 }
             }
-            "--normals" => {
-                o.normals = NormalScheme::from_name(&val(i)?).map_err(|e| e.to_string())?
-            }
+            "--normals" => o.normals = NormalScheme::from_name(&val(i)?).map_err(|e| e.to_string())?,
             "--quadrature" => {
                 o.quadrature = match val(i)?.as_str() {
                     "exact" => CellQuadrature::ExactAlongNormal,
@@ -142,21 +136,14 @@ fn run(n: usize, o: &Opts) -> Result<Run, Box<dyn std::error::Error>> {
     let g = Grid::<f64>::periodic([n, n, 1], [0.0; 3], [1.0, 1.0, h])?;
     let a = 0.15;
     let ellipse = Ellipse::new([0.5, 0.75], [a, 0.7 * a])?;
-    let smoothing = Smoothing {
-        beta: o.beta,
-        points: 4,
-    };
+    let smoothing = Smoothing { beta: o.beta, points: 4 };
     let (phi0, kt0) = smoothed_fields(&g, &ellipse, &smoothing)?;
     let (mut phi, mut kt) = (phi0.clone(), kt0.clone());
 
     // Stream function at nodes (x_i, y_j) = (i h, j h); face velocities are its differences.
     let psi = |i: isize, j: isize| {
         let (x, y) = (i as f64 * h, j as f64 * h);
-        let s = if o.sin {
-            (PI * y).sin().powi(2)
-        } else {
-            (PI * y).cos().powi(2)
-        };
+        let s = if o.sin { (PI * y).sin().powi(2) } else { (PI * y).cos().powi(2) };
         (PI * x).sin().powi(2) * s / PI
     };
     let mut v0 = VectorField::zeros(&g);
@@ -167,21 +154,12 @@ fn run(n: usize, o: &Opts) -> Result<Run, Box<dyn std::error::Error>> {
         v0.c[1].data[id] = -(psi(i + 1, j) - psi(i, j)) / h;
     }
     v0.fill_ghosts(&g);
-    let umax = v0.c[0]
-        .data
-        .iter()
-        .chain(&v0.c[1].data)
-        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let umax = v0.c[0].data.iter().chain(&v0.c[1].data).fold(0.0f64, |m, x| m.max(x.abs()));
     let t_end = 1.0;
     let steps = (t_end * umax / (o.cfl * h)).ceil() as usize;
     let dt = t_end / steps as f64;
 
-    let params = AdvectionParams {
-        beta: o.beta,
-        normals: o.normals,
-        quadrature: o.quadrature,
-        tiny: o.tiny,
-    };
+    let params = AdvectionParams { beta: o.beta, normals: o.normals, quadrature: o.quadrature, tiny: o.tiny };
     let mut adv = Advector::new(&g, params, true)?;
     let mut v = v0.clone();
     let mass0 = phi0.interior_sum(&g);
@@ -274,10 +252,7 @@ fn print_table(runs: &[Run], o: &Opts) {
         if o.sin { "sin^2" } else { "cos^2" },
         o.normals.name()
     );
-    for (name, pick, paper) in [
-        ("phi", 0usize, &PAPER_PHI),
-        ("kappa_R delta_bar", 1, &PAPER_KAPPA),
-    ] {
+    for (name, pick, paper) in [("phi", 0usize, &PAPER_PHI), ("kappa_R delta_bar", 1, &PAPER_KAPPA)] {
         println!("{name}");
         println!(
             "{:>5} {:>22} {:>6} {:>22} {:>6} {:>22} {:>6}",
@@ -294,11 +269,7 @@ fn print_table(runs: &[Run], o: &Opts) {
                     None => format!("{:.2e}", e[c]),
                 };
                 let ord = if k > 0 && runs[k - 1].n * 2 == r.n {
-                    let pe = if pick == 0 {
-                        runs[k - 1].phi
-                    } else {
-                        runs[k - 1].kappa
-                    };
+                    let pe = if pick == 0 { runs[k - 1].phi } else { runs[k - 1].kappa };
                     format!("{:.2}", (pe[c] / e[c]).log2())
                 } else {
                     "-".into()
@@ -328,14 +299,8 @@ fn contour(g: &Grid<f64>, f: &Field<f64>, level: f64) -> Vec<[[f64; 2]; 2]> {
                 let (a, b) = (e, (e + 1) % 4);
                 if (v[a] < 0.0) != (v[b] < 0.0) {
                     let t = v[a] / (v[a] - v[b]);
-                    let q = [
-                        p[a][0] + t * (p[b][0] - p[a][0]),
-                        p[a][1] + t * (p[b][1] - p[a][1]),
-                    ];
-                    pts.push([
-                        (i as f64 + 0.5 + q[0]) * h[0],
-                        (j as f64 + 0.5 + q[1]) * h[1],
-                    ]);
+                    let q = [p[a][0] + t * (p[b][0] - p[a][0]), p[a][1] + t * (p[b][1] - p[a][1])];
+                    pts.push([(i as f64 + 0.5 + q[0]) * h[0], (j as f64 + 0.5 + q[1]) * h[1]]);
                 }
             }
             if pts.len() == 2 {
@@ -357,11 +322,7 @@ struct Svg {
 
 impl Svg {
     fn new(w: f64, h: f64) -> Self {
-        Svg {
-            body: String::new(),
-            w,
-            h,
-        }
+        Svg { body: String::new(), w, h }
     }
     fn line(&mut self, a: [f64; 2], b: [f64; 2], style: &str) {
         let _ = writeln!(
@@ -410,30 +371,18 @@ fn plots(g: &Grid<f64>, snaps: &[Snap], o: &Opts, n: usize) -> std::io::Result<(
         let oy = 30.0;
         svg.rect(ox, oy, px, px);
         svg.text(ox, oy - 8.0, &format!("N={n}, t={t:.2}"));
-        let map = |q: [f64; 2]| {
-            [
-                ox + (q[0] - x0) / (x1 - x0) * px,
-                oy + (1.0 - (q[1] - y0) / (y1 - y0)) * px,
-            ]
-        };
+        let map =
+            |q: [f64; 2]| [ox + (q[0] - x0) / (x1 - x0) * px, oy + (1.0 - (q[1] - y0) / (y1 - y0)) * px];
         for (lvl, style) in styles {
             for s in contour(g, phi, lvl.parse().unwrap_or(0.5)) {
                 let inside = |q: [f64; 2]| q[0] >= x0 && q[0] <= x1 && q[1] >= y0 && q[1] <= y1;
                 if inside(s[0]) && inside(s[1]) {
-                    svg.line(
-                        map(s[0]),
-                        map(s[1]),
-                        &format!(r#"{style} stroke-width="1""#),
-                    );
+                    svg.line(map(s[0]), map(s[1]), &format!(r#"{style} stroke-width="1""#));
                 }
             }
         }
     }
-    svg.text(
-        20.0,
-        px + 55.0,
-        "phi = 0.05 (blue dotted), 0.5 (black), 0.95 (red dashed)",
-    );
+    svg.text(20.0, px + 55.0, "phi = 0.05 (blue dotted), 0.5 (black), 0.95 (red dashed)");
     svg.save(&dir.join(format!("contours_n{n}.svg")))?;
 
     // Fig. 4: kappa_R delta_bar across the band: its peak in each 5-degree sector of polar angle
@@ -452,38 +401,21 @@ fn plots(g: &Grid<f64>, snaps: &[Snap], o: &Opts, n: usize) -> std::io::Result<(
             let b = (((th + 180.0) / 360.0 * bins as f64) as usize).min(bins - 1);
             peak[b] = peak[b].max(kt.data[id] * h);
         }
-        (0..bins)
-            .map(|b| [-180.0 + (b as f64 + 0.5) * 360.0 / bins as f64, peak[b]])
-            .collect()
+        (0..bins).map(|b| [-180.0 + (b as f64 + 0.5) * 360.0 / bins as f64, peak[b]]).collect()
     };
     let first = &snaps[0];
     let last = &snaps[snaps.len() - 1];
-    let curves = [
-        ("t=0 (exact)", sample(&first.1, &first.2), "black"),
-        ("t=T", sample(&last.1, &last.2), "red"),
-    ];
-    let ymax = curves
-        .iter()
-        .flat_map(|c| c.1.iter().map(|p| p[1]))
-        .fold(0.0f64, f64::max)
-        * 1.1;
+    let curves =
+        [("t=0 (exact)", sample(&first.1, &first.2), "black"), ("t=T", sample(&last.1, &last.2), "red")];
+    let ymax = curves.iter().flat_map(|c| c.1.iter().map(|p| p[1])).fold(0.0f64, f64::max) * 1.1;
     let (w, hh) = (640.0, 360.0);
     let mut svg = Svg::new(w + 80.0, hh + 80.0);
     let (ox, oy) = (60.0, 20.0);
     svg.rect(ox, oy, w, hh);
-    let map = |p: [f64; 2]| {
-        [
-            ox + (p[0] + 180.0) / 360.0 * w,
-            oy + (1.0 - p[1] / ymax) * hh,
-        ]
-    };
+    let map = |p: [f64; 2]| [ox + (p[0] + 180.0) / 360.0 * w, oy + (1.0 - p[1] / ymax) * hh];
     for (k, (name, pts, color)) in curves.iter().enumerate() {
         for s in pts.windows(2) {
-            svg.line(
-                map(s[0]),
-                map(s[1]),
-                &format!(r#"stroke="{color}" stroke-width="1.5""#),
-            );
+            svg.line(map(s[0]), map(s[1]), &format!(r#"stroke="{color}" stroke-width="1.5""#));
         }
         svg.line(
             [ox + 20.0, oy + 20.0 + 18.0 * k as f64],

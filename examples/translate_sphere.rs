@@ -33,11 +33,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
     while i < args.len() {
-        let val = || {
-            args.get(i + 1)
-                .cloned()
-                .ok_or(format!("{} needs a value", args[i]))
-        };
+        let val = || args.get(i + 1).cloned().ok_or(format!("{} needs a value", args[i]));
         match args[i].as_str() {
             "--n" => n = val()?.parse()?,
             "--radius" => radius = val()?.parse()?,
@@ -66,16 +62,12 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     // Summed Courant number (|u| + |v| + |w|) dt / h = cfl: AB2 needs it below about 1/2.
     let steps = (3.0 / (cfl * h)).ceil() as usize;
     let dt = 1.0 / steps as f64;
-    let params = AdvectionParams {
-        normals,
-        ..Default::default()
-    };
+    let params = AdvectionParams { normals, ..Default::default() };
     let mut adv = Advector::new(&g, params, curvature)?;
     let mass0 = phi0.interior_sum(&g);
     std::fs::create_dir_all(&out)?;
-    let mut csv = std::io::BufWriter::new(std::fs::File::create(
-        std::path::Path::new(&out).join("history.csv"),
-    )?);
+    let mut csv =
+        std::io::BufWriter::new(std::fs::File::create(std::path::Path::new(&out).join("history.csv"))?);
     writeln!(csv, "step,t,volume_drift,profile_cells")?;
     let t0 = std::time::Instant::now();
     let mut band = 0;
@@ -87,14 +79,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         };
         band = info.profile_cells;
         let drift = (phi.interior_sum(&g) - mass0) / mass0;
-        writeln!(
-            csv,
-            "{},{},{:e},{}",
-            s + 1,
-            (s + 1) as f64 * dt,
-            drift,
-            band
-        )?;
+        writeln!(csv, "{},{},{:e},{}", s + 1, (s + 1) as f64 * dt, drift, band)?;
         if (s + 1) % (steps / 4).max(1) == 0 {
             eprintln!(
                 "step {}/{steps} t={:.3} dt={dt:.3e} volume_drift={drift:.2e} profile_cells={band} \

@@ -3,12 +3,10 @@
 
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::geometry::{Band, Geometry, NormalScheme, delta_in_band};
-use eulermembrane::interface::mthinc::{
-    CellQuadrature, Reconstruction, cell_average, solve_offset,
-};
+use eulermembrane::interface::mthinc::{CellQuadrature, Reconstruction, cell_average, solve_offset};
 use eulermembrane::interface::shapes::{
-    Biconcave, Circle, Ellipse, Ellipsoid, Shape, SignedDistanceFn, Smoothing, Sphere,
-    convolved_curvature, smoothed_fields, smoothed_phi,
+    Biconcave, Circle, Ellipse, Ellipsoid, Shape, SignedDistanceFn, Smoothing, Sphere, convolved_curvature,
+    smoothed_fields, smoothed_phi,
 };
 use eulermembrane::interface::{AdvectionParams, Advector, advect::cfl_number};
 use eulermembrane::{Error, Real};
@@ -21,8 +19,7 @@ fn swirl<T: Real>(g: &Grid<T>, amp: f64) -> VectorField<T> {
     let h = g.h().map(|x| x.f64());
     let psi = |i: isize, j: isize, k: isize| {
         let (x, y, z) = (i as f64 * h[0], j as f64 * h[1], (k as f64 + 0.5) * h[2]);
-        amp * (2.0 * PI * x).sin() * (2.0 * PI * y).cos() * (1.0 + 0.3 * (2.0 * PI * z).cos())
-            / (2.0 * PI)
+        amp * (2.0 * PI * x).sin() * (2.0 * PI * y).cos() * (1.0 + 0.3 * (2.0 * PI * z).cos()) / (2.0 * PI)
     };
     let mut v = VectorField::zeros(g);
     for (i, j, k) in g.cells() {
@@ -38,9 +35,7 @@ fn swirl<T: Real>(g: &Grid<T>, amp: f64) -> VectorField<T> {
 fn interior_min_max(g: &Grid<f64>, f: &Field<f64>) -> (f64, f64) {
     g.cells()
         .map(|(i, j, k)| f.data[g.idx_u(i, j, k)])
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-            (a.min(x), b.max(x))
-        })
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)))
 }
 
 #[test]
@@ -53,17 +48,11 @@ fn conservation_to_round_off_in_3d() {
     assert!(cfl_number(&g, &v, dt) <= 0.2 + 1e-12);
     let m0 = phi.interior_sum(&g);
     for scheme in [NormalScheme::Youngs, NormalScheme::Atanh4] {
-        let p = AdvectionParams {
-            normals: scheme,
-            ..Default::default()
-        };
+        let p = AdvectionParams { normals: scheme, ..Default::default() };
         let mut adv = Advector::new(&g, p, true).unwrap();
         for _ in 0..15 {
             let info = adv.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
-            assert!(
-                info.profile_cells > 0 && info.max_iterations < 10,
-                "{info:?}"
-            );
+            assert!(info.profile_cells > 0 && info.max_iterations < 10, "{info:?}");
         }
         let drift = ((phi.interior_sum(&g) - m0) / m0).abs();
         assert!(drift < 1e-13, "{scheme:?} drift {drift:e}");
@@ -148,10 +137,7 @@ fn saturated_flat_and_rough_fields_stay_finite() {
             adv.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
         }
         assert!(phi.first_non_finite(&g).is_none() && kt.first_non_finite(&g).is_none());
-        assert!(
-            (phi.interior_sum(&g) - m0).abs() <= 1e-12 * m0.max(1.0),
-            "case {case}"
-        );
+        assert!((phi.interior_sum(&g) - m0).abs() <= 1e-12 * m0.max(1.0), "case {case}");
         if case < 3 {
             // A uniform field stays uniform (its fluxes are v * phi, v divergence-free).
             let (lo, hi) = interior_min_max(&g, &phi);
@@ -312,8 +298,7 @@ fn history_restore_reproduces_the_next_step() {
     assert!(
         phi.data.iter().zip(&p2.data).all(|(x, y)| x == y) || {
             // ghosts may differ (stale); compare the interiors
-            g.cells()
-                .all(|(i, j, k)| phi.data[g.idx_u(i, j, k)] == p2.data[g.idx_u(i, j, k)])
+            g.cells().all(|(i, j, k)| phi.data[g.idx_u(i, j, k)] == p2.data[g.idx_u(i, j, k)])
         }
     );
 }
@@ -321,18 +306,9 @@ fn history_restore_reproduces_the_next_step() {
 #[test]
 fn bad_input_gives_errors_not_panics() {
     let g = Grid::<f64>::periodic([8, 8, 8], [0.0; 3], [1.0; 3]).unwrap();
-    let bad_beta = AdvectionParams {
-        beta: -1.0,
-        ..Default::default()
-    };
-    assert!(matches!(
-        Advector::new(&g, bad_beta, false),
-        Err(Error::InvalidParameter { .. })
-    ));
-    let dec = AdvectionParams {
-        normals: NormalScheme::Deconvolved,
-        ..Default::default()
-    };
+    let bad_beta = AdvectionParams { beta: -1.0, ..Default::default() };
+    assert!(matches!(Advector::new(&g, bad_beta, false), Err(Error::InvalidParameter { .. })));
+    let dec = AdvectionParams { normals: NormalScheme::Deconvolved, ..Default::default() };
     assert!(Advector::new(&g, dec, false).is_err());
     let mut adv = Advector::new(&g, AdvectionParams::default(), false).unwrap();
     let mut phi = Field::zeros(&g);
@@ -343,17 +319,11 @@ fn bad_input_gives_errors_not_panics() {
     assert!(adv.step(&g, &v, 0.1, &mut phi, Some(&mut kt)).is_err());
     let g2 = Grid::<f64>::periodic([8, 8, 4], [0.0; 3], [1.0; 3]).unwrap();
     let mut phi2 = Field::zeros(&g2);
-    assert!(
-        adv.step(&g2, &VectorField::zeros(&g2), 0.1, &mut phi2, None)
-            .is_err()
-    );
+    assert!(adv.step(&g2, &VectorField::zeros(&g2), 0.1, &mut phi2, None).is_err());
     // NaN in the field: reported, not a panic.
     let mut phin = Field::zeros(&g);
     phin.data[g.idx(3, 3, 3)] = f64::NAN;
-    assert!(matches!(
-        adv.step(&g, &v, 0.1, &mut phin, None),
-        Err(Error::NonFinite { .. })
-    ));
+    assert!(matches!(adv.step(&g, &v, 0.1, &mut phin, None), Err(Error::NonFinite { .. })));
     assert!(Sphere::new([0.5; 3], 0.0).is_err());
     assert!(Sphere::new([f64::NAN, 0.5, 0.5], 0.1).is_err());
     assert!(Ellipsoid::new([0.5; 3], [0.1, -0.1, 0.1]).is_err());
@@ -363,10 +333,7 @@ fn bad_input_gives_errors_not_panics() {
     assert!(Biconcave::with_coefficients([0.5; 3], 0.2, 0, [-0.35, 2.0, -1.1]).is_err());
     assert!(SignedDistanceFn::new(4, |_: [f64; 3]| 0.0).is_err());
     let s = Sphere::new([0.5; 3], 0.2).unwrap();
-    let bad = Smoothing {
-        beta: 0.0,
-        points: 4,
-    };
+    let bad = Smoothing { beta: 0.0, points: 4 };
     assert!(smoothed_phi(&g, &s, &bad).is_err());
     let nan_shape = SignedDistanceFn::new(3, |_: [f64; 3]| f64::NAN).unwrap();
     assert!(smoothed_phi(&g, &nan_shape, &Smoothing::default()).is_err());
@@ -386,8 +353,7 @@ fn shape_volumes_converge() {
     let sphere = Sphere::new([0.51, 0.49, 0.5], 0.3).unwrap();
     for n in [16, 32] {
         let e = vol(n, &sphere);
-        let pred =
-            eulermembrane::interface::shapes::smoothed_volume_excess(0.3, 1.0 / n as f64, 1.0);
+        let pred = eulermembrane::interface::shapes::smoothed_volume_excess(0.3, 1.0 / n as f64, 1.0);
         assert!((e / pred - 1.0).abs() < 0.05, "sphere n={n}: {e} vs {pred}");
     }
     let shapes: Vec<Box<dyn Shape>> = vec![
@@ -427,12 +393,7 @@ fn geometry_integrals_on_a_sphere() {
     let sk = kt.interior_sum(&g) * g.cell_volume();
     assert!((sk / (area / r) - 1.0).abs() < 0.02, "{sk}");
     let k2 = convolved_curvature(&g, &s, &Smoothing::default()).unwrap();
-    assert!(
-        k2.data
-            .iter()
-            .zip(&kt.data)
-            .all(|(a, b)| (a - b).abs() < 1e-12)
-    );
+    assert!(k2.data.iter().zip(&kt.data).all(|(a, b)| (a - b).abs() < 1e-12));
     for scheme in NormalScheme::ALL {
         let mut geo = Geometry::new(&g, scheme);
         geo.update(&g, &phi);
@@ -447,9 +408,7 @@ fn geometry_integrals_on_a_sphere() {
                 assert!(m > 0.7 && m < 1.3, "{scheme:?} {m}");
                 let x = g.cell_center(i as isize, j as isize, k as isize);
                 // Inward: n . (x - c) < 0.
-                let dot: f64 = (0..3)
-                    .map(|d| normals[d].data[id] * (x[d] - [0.5, 0.49, 0.52][d]))
-                    .sum();
+                let dot: f64 = (0..3).map(|d| normals[d].data[id] * (x[d] - [0.5, 0.49, 0.52][d])).sum();
                 assert!(dot < 0.0);
             }
         }
@@ -462,11 +421,7 @@ fn biconcave_shape_matches_its_profile() {
     let b = Biconcave::new([0.0; 3], a).unwrap();
     // On the axis: thickness c1 a; at the rim: x = 0, r = a.
     let sp = b.closest([0.0, 0.0, 0.0]);
-    assert!(
-        (sp.distance - 0.5 * 0.35 * a).abs() < 1e-9,
-        "{}",
-        sp.distance
-    );
+    assert!((sp.distance - 0.5 * 0.35 * a).abs() < 1e-9, "{}", sp.distance);
     let sp = b.closest([0.0, 1.2 * a, 0.0]);
     assert!((sp.distance + 0.2 * a).abs() < 1e-9);
     assert!(sp.mean_curvature > 0.0);
@@ -479,41 +434,23 @@ fn biconcave_shape_matches_its_profile() {
         assert!(b.signed_distance(p).abs() < 1e-9);
         let q = [x + 0.01 * a, r * 0.6, r * 0.8];
         let sp = b.closest(q);
-        let d: f64 = (0..3)
-            .map(|k| (sp.point[k] - q[k]).powi(2))
-            .sum::<f64>()
-            .sqrt();
+        let d: f64 = (0..3).map(|k| (sp.point[k] - q[k]).powi(2)).sum::<f64>().sqrt();
         assert!((d - sp.distance.abs()).abs() < 1e-12);
     }
     // Mean curvature by finite differences of the signed distance agrees with the exact one.
-    let f = SignedDistanceFn::new(3, |x: [f64; 3]| b.signed_distance(x))
-        .unwrap()
-        .with_step(1e-4 * a)
-        .unwrap();
+    let f =
+        SignedDistanceFn::new(3, |x: [f64; 3]| b.signed_distance(x)).unwrap().with_step(1e-4 * a).unwrap();
     for p in [[0.09, 0.05, 0.0], [0.0, 0.0, 0.21], [-0.05, 0.1, 0.1]] {
         let (e, fd) = (b.closest(p), f.closest(p));
-        assert!(
-            (e.mean_curvature - fd.mean_curvature).abs() < 1e-3 * (1.0 / a),
-            "{p:?}"
-        );
+        assert!((e.mean_curvature - fd.mean_curvature).abs() < 1e-3 * (1.0 / a), "{p:?}");
     }
 }
 
 #[test]
 fn periodic_images_are_used() {
     let g = Grid::<f64>::periodic([16, 16, 16], [0.0; 3], [1.0; 3]).unwrap();
-    let a = smoothed_phi(
-        &g,
-        &Sphere::new([0.5; 3], 0.2).unwrap(),
-        &Smoothing::default(),
-    )
-    .unwrap();
-    let b = smoothed_phi(
-        &g,
-        &Sphere::new([0.0, 0.5, 0.5], 0.2).unwrap(),
-        &Smoothing::default(),
-    )
-    .unwrap();
+    let a = smoothed_phi(&g, &Sphere::new([0.5; 3], 0.2).unwrap(), &Smoothing::default()).unwrap();
+    let b = smoothed_phi(&g, &Sphere::new([0.0, 0.5, 0.5], 0.2).unwrap(), &Smoothing::default()).unwrap();
     let (sa, sb) = (a.interior_sum(&g), b.interior_sum(&g));
     assert!((sa - sb).abs() < 1e-9 * sa, "{sa} {sb}");
 }

@@ -30,10 +30,7 @@ fn errors(g: &Grid<f64>, phi: &Field<f64>, shape: &dyn Shape, scheme: NormalSche
         if p > 0.1 && p < 0.9 {
             let s = sp.distance;
             let exact = 0.5 * sp.principal.iter().map(|&k| k / (1.0 - s * k)).sum::<f64>();
-            let m = geo
-                .curvature(g, phi, idx)
-                .expect("a curvature in the band")
-                .mean;
+            let m = geo.curvature(g, phi, idx).expect("a curvature in the band").mean;
             curv = curv.max((m / exact - 1.0).abs());
         }
     }
@@ -69,10 +66,7 @@ fn ellipsoid(diam: f64) -> (Grid<f64>, Field<f64>, Ellipsoid) {
 #[test]
 fn design_guide_numbers_at_radius_8() {
     let (g, phi, s) = sphere(8.0);
-    let e: Vec<(f64, f64)> = NormalScheme::ALL
-        .iter()
-        .map(|&sc| errors(&g, &phi, &s, sc))
-        .collect();
+    let e: Vec<(f64, f64)> = NormalScheme::ALL.iter().map(|&sc| errors(&g, &phi, &s, sc)).collect();
     for (sc, x) in NormalScheme::ALL.iter().zip(&e) {
         eprintln!("{:>12}: {:.2} deg, {:.1} %", sc.name(), x.0, 100.0 * x.1);
     }
@@ -109,10 +103,7 @@ fn normals_at_radius_16() {
         }
     }
     // Point samples: the atanh normals converge.
-    let smooth = Smoothing {
-        points: 1,
-        ..Default::default()
-    };
+    let smooth = Smoothing { points: 1, ..Default::default() };
     let errs: Vec<f64> = [8.0, 16.0]
         .iter()
         .map(|&r| {
@@ -148,21 +139,13 @@ fn normal_and_curvature_study() {
         let mut prev: Option<Vec<(f64, f64)>> = None;
         for d in [16.0, 32.0, 64.0, 128.0] {
             let (g, phi, shape) = build(d);
-            let e: Vec<(f64, f64)> = NormalScheme::ALL
-                .iter()
-                .map(|&sc| errors(&g, &phi, shape.as_ref(), sc))
-                .collect();
+            let e: Vec<(f64, f64)> =
+                NormalScheme::ALL.iter().map(|&sc| errors(&g, &phi, shape.as_ref(), sc)).collect();
             let mut line = format!("{d:>5}");
             for (k, x) in e.iter().enumerate() {
                 let ord = prev
                     .as_ref()
-                    .map(|p| {
-                        format!(
-                            "({:.1},{:.1})",
-                            (p[k].0 / x.0).log2(),
-                            (p[k].1 / x.1).log2()
-                        )
-                    })
+                    .map(|p| format!("({:.1},{:.1})", (p[k].0 / x.0).log2(), (p[k].1 / x.1).log2()))
                     .unwrap_or_default();
                 line += &format!(" {:>6.3} / {:>5.2} {:>11}", x.0, 100.0 * x.1, ord);
             }

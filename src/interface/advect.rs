@@ -192,8 +192,7 @@ impl<T: Real> Advector<T> {
     /// tilde` (the latter empty without curvature), or `None` before the first step. For
     /// checkpoints; see [`Advector::restore_history`].
     pub fn history(&self) -> Option<(T, &[T], &[T])> {
-        self.dt_prev
-            .map(|dt| (dt, self.rhs_phi.as_slice(), self.rhs_kappa.as_slice()))
+        self.dt_prev.map(|dt| (dt, self.rhs_phi.as_slice(), self.rhs_kappa.as_slice()))
     }
 
     /// Restores a history saved from [`Advector::history`] (same grid). Errors on a length
@@ -237,19 +236,11 @@ impl<T: Real> Advector<T> {
             ));
         }
         if phi.data.len() != grid.len() {
-            return Err(Error::invalid(
-                "phi",
-                phi.data.len(),
-                "a field of this grid",
-            ));
+            return Err(Error::invalid("phi", phi.data.len(), "a field of this grid"));
         }
         match (kappa, self.curvature) {
             (Some(k), true) if k.data.len() == grid.len() => Ok(()),
-            (Some(k), true) => Err(Error::invalid(
-                "kappa_tilde",
-                k.data.len(),
-                "a field of this grid",
-            )),
+            (Some(k), true) => Err(Error::invalid("kappa_tilde", k.data.len(), "a field of this grid")),
             (None, false) => Ok(()),
             (Some(_), false) => Err(Error::Unsupported {
                 component: "Advector",
@@ -259,8 +250,7 @@ impl<T: Real> Advector<T> {
             }),
             (None, true) => Err(Error::Unsupported {
                 component: "Advector",
-                detail: "this advector was created with curvature: pass the kappa_R tilde field"
-                    .into(),
+                detail: "this advector was created with curvature: pass the kappa_R tilde field".into(),
             }),
         }
     }
@@ -277,11 +267,7 @@ impl<T: Real> Advector<T> {
         self.check(grid, phi, kappa)?;
         let n = grid.n();
         let p = self.params;
-        let (klo, khi) = if grid.is_2d() {
-            (0, 0)
-        } else {
-            (-1, n[2] as isize)
-        };
+        let (klo, khi) = if grid.is_2d() { (0, 0) } else { (-1, n[2] as isize) };
         // Band list (serial: a compare per cell; the work is in the parallel part below).
         self.band_idx.clear();
         let (lo, hi) = (p.tiny, T::one() - p.tiny);
@@ -299,8 +285,7 @@ impl<T: Real> Advector<T> {
                 }
             }
         }
-        self.band
-            .resize(self.band_idx.len(), Reconstruction::default());
+        self.band.resize(self.band_idx.len(), Reconstruction::default());
         let scale = self.scale;
         let info = self
             .band
@@ -309,10 +294,7 @@ impl<T: Real> Advector<T> {
             .map(|(rec, &idx)| {
                 let f = phi.data[idx];
                 let kt = kappa.map_or(T::zero(), |k| k.data[idx]);
-                let mut info = StepInfo {
-                    band_cells: 1,
-                    ..Default::default()
-                };
+                let mut info = StepInfo { band_cells: 1, ..Default::default() };
                 *rec = Reconstruction::uniform(f, kt);
                 if let Some(nrm) = normal_at(grid, p.normals, phi, idx) {
                     let (r, solve) = Reconstruction::new(f, nrm, scale, p.tiny, p.quadrature);
@@ -352,11 +334,7 @@ impl<T: Real> Advector<T> {
         crate::error::positive("dt", dt)?;
         self.check(grid, phi, kappa.as_deref())?;
         if v.c.iter().any(|c| c.data.len() != grid.len()) {
-            return Err(Error::invalid(
-                "v",
-                "a field of another grid",
-                "a field of this grid",
-            ));
+            return Err(Error::invalid("v", "a field of another grid", "a field of this grid"));
         }
         phi.fill_ghosts(grid);
         if let Some(k) = kappa.as_deref_mut() {
@@ -386,10 +364,7 @@ impl<T: Real> Advector<T> {
                 return Err(Error::NonFinite { field: "phi", cell });
             }
             if let Some(cell) = kappa.and_then(|k| k.first_non_finite(grid)) {
-                return Err(Error::NonFinite {
-                    field: "kappa_tilde",
-                    cell,
-                });
+                return Err(Error::NonFinite { field: "kappa_tilde", cell });
             }
         }
         Ok(info)
@@ -418,18 +393,10 @@ impl<T: Real> Advector<T> {
             axes: if grid.is_2d() { 2 } else { 3 },
             inv_h: grid.h().map(|h| T::one() / h),
         };
-        let rows_phi = self
-            .next_phi
-            .par_chunks_mut(dx)
-            .zip(self.rhs_phi.par_chunks_mut(dx))
-            .enumerate();
+        let rows_phi = self.next_phi.par_chunks_mut(dx).zip(self.rhs_phi.par_chunks_mut(dx)).enumerate();
         if K {
             rows_phi
-                .zip(
-                    self.next_kappa
-                        .par_chunks_mut(dx)
-                        .zip(self.rhs_kappa.par_chunks_mut(dx)),
-                )
+                .zip(self.next_kappa.par_chunks_mut(dx).zip(self.rhs_kappa.par_chunks_mut(dx)))
                 .map(|((row, (p, rp)), (kl, rk))| kern.row::<true>(row, p, rp, kl, rk))
                 .reduce(|| false, |a, b| a || b)
         } else {
@@ -466,21 +433,13 @@ impl<T: Real> RowKernel<'_, T> {
     #[inline(always)]
     fn flux<const K: bool>(&self, axis: usize, idx: usize) -> (T, T) {
         let u = self.v.c[axis].data[idx];
-        let (cell, upper) = if u >= T::zero() {
-            (idx - self.st[axis], true)
-        } else {
-            (idx, false)
-        };
+        let (cell, upper) = if u >= T::zero() { (idx - self.st[axis], true) } else { (idx, false) };
         let s = self.slot[cell];
         let (h, g) = if s == NONE {
             (self.phi[cell], if K { self.kappa[cell] } else { T::zero() })
         } else {
             let r = &self.band[s as usize];
-            if K {
-                r.face_pair(axis, upper)
-            } else {
-                (r.face_average(axis, upper), T::zero())
-            }
+            if K { r.face_pair(axis, upper) } else { (r.face_average(axis, upper), T::zero()) }
         };
         (u * h, u * g)
     }

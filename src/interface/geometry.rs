@@ -114,10 +114,7 @@ impl NormalScheme {
 
     /// Whether the scheme differences `psi = atanh(2 phi - 1)` rather than `phi`.
     pub fn uses_psi(self) -> bool {
-        matches!(
-            self,
-            NormalScheme::Atanh2 | NormalScheme::Atanh4 | NormalScheme::Deconvolved
-        )
+        matches!(self, NormalScheme::Atanh2 | NormalScheme::Atanh4 | NormalScheme::Deconvolved)
     }
 
     /// A short snake_case name (for tables and command lines).
@@ -133,16 +130,13 @@ impl NormalScheme {
 
     /// Parses [`NormalScheme::name`].
     pub fn from_name(s: &str) -> crate::Result<Self> {
-        Self::ALL
-            .into_iter()
-            .find(|x| x.name() == s)
-            .ok_or_else(|| {
-                crate::Error::invalid(
-                    "normal scheme",
-                    s,
-                    "one of youngs, central_phi, atanh2, atanh4, deconvolved",
-                )
-            })
+        Self::ALL.into_iter().find(|x| x.name() == s).ok_or_else(|| {
+            crate::Error::invalid(
+                "normal scheme",
+                s,
+                "one of youngs, central_phi, atanh2, atanh4, deconvolved",
+            )
+        })
     }
 }
 
@@ -216,11 +210,7 @@ struct Stencil<T> {
 impl<T: Real> Stencil<T> {
     fn new(grid: &Grid<T>) -> Self {
         let s = grid.strides();
-        Stencil {
-            st: [s[0] as isize, s[1] as isize, s[2] as isize],
-            h: grid.h(),
-            planar: grid.is_2d(),
-        }
+        Stencil { st: [s[0] as isize, s[1] as isize, s[2] as isize], h: grid.h(), planar: grid.is_2d() }
     }
     #[inline(always)]
     fn axes(&self) -> usize {
@@ -248,11 +238,7 @@ fn youngs_gradient<T: Real, F: Fn(isize) -> T>(f: &F, s: &Stencil<T>) -> Vec3<T>
         for a in -1isize..=1 {
             let (b_lo, b_hi) = if s.planar && t2 == 2 { (0, 0) } else { (-1, 1) };
             for b in b_lo..=b_hi {
-                let wb = if s.planar && t2 == 2 {
-                    T::one()
-                } else {
-                    w[(b + 1) as usize]
-                };
+                let wb = if s.planar && t2 == 2 { T::one() } else { w[(b + 1) as usize] };
                 let off = a * s.st[t1] + b * s.st[t2];
                 sum += w[(a + 1) as usize] * wb * (f(off + s.st[d]) - f(off - s.st[d]));
             }
@@ -339,11 +325,7 @@ fn unit<T: Real>(g: Vec3<T>, hmin: T) -> Option<(Vec3<T>, T)> {
 /// Gradient of the level function of `scheme` (`phi` for Youngs and CentralPhi, `psi` for the
 /// inverse-tanh schemes) read through `f(offset)`.
 #[inline(always)]
-fn level_gradient<T: Real, F: Fn(isize) -> T>(
-    scheme: NormalScheme,
-    f: &F,
-    s: &Stencil<T>,
-) -> Vec3<T> {
+fn level_gradient<T: Real, F: Fn(isize) -> T>(scheme: NormalScheme, f: &F, s: &Stencil<T>) -> Vec3<T> {
     match scheme {
         NormalScheme::Youngs => youngs_gradient(f, s),
         NormalScheme::CentralPhi | NormalScheme::Atanh2 => central_grad_hess(f, s, false, false).0,
@@ -411,11 +393,7 @@ fn level_curvature<T: Real, F: Fn(isize) -> T>(
         *x = -*x;
     }
     let mean = crate::tensor::trace(&k) / dim_minus_one;
-    if mean.is_finite() {
-        Some(Curvature { tensor: k, mean })
-    } else {
-        None
-    }
+    if mean.is_finite() { Some(Curvature { tensor: k, mean }) } else { None }
 }
 
 /// `grad n` at a cell centre from Youngs node normals (each node normal from the 8 cells
@@ -441,11 +419,7 @@ fn youngs_grad_n<T: Real, F: Fn(isize) -> T>(f: &F, s: &Stencil<T>) -> [[T; 3]; 
                             sum += f(off + sgn[d] * s.st[d]) - f(off);
                         }
                     }
-                    let count = if q2.len() == 1 {
-                        T::lit(2.0)
-                    } else {
-                        T::lit(4.0)
-                    };
+                    let count = if q2.len() == 1 { T::lit(2.0) } else { T::lit(4.0) };
                     *gd = T::from_isize(sgn[d]).unwrap_or(T::one()) * sum / (count * s.h[d]);
                 }
                 let m = norm(&g);
@@ -482,12 +456,7 @@ fn deconvolve_tiny<T: Real>() -> T {
 /// The deconvolved level value of the cell at `idx`: the MTHINC offset `D` with the
 /// fourth-order `psi` normal, or `psi` where `phi` is saturated or the normal vanishes.
 #[inline]
-fn deconvolved_value<T: Real, F: Fn(isize) -> T>(
-    psi: &F,
-    phi: T,
-    s: &Stencil<T>,
-    scale: [T; 3],
-) -> T {
+fn deconvolved_value<T: Real, F: Fn(isize) -> T>(psi: &F, phi: T, s: &Stencil<T>, scale: [T; 3]) -> T {
     let tiny = deconvolve_tiny::<T>();
     if !(phi > tiny && phi < T::one() - tiny) {
         return psi(0);
@@ -496,13 +465,8 @@ fn deconvolved_value<T: Real, F: Fn(isize) -> T>(
     match unit(g, hmin(s)) {
         Some((n, _)) => {
             let a = [n[0] * scale[0], n[1] * scale[1], n[2] * scale[2]];
-            super::mthinc::solve_offset(
-                a,
-                phi,
-                tiny,
-                super::mthinc::CellQuadrature::ExactAlongNormal,
-            )
-            .map_or_else(|| psi(0), |x| x.offset)
+            super::mthinc::solve_offset(a, phi, tiny, super::mthinc::CellQuadrature::ExactAlongNormal)
+                .map_or_else(|| psi(0), |x| x.offset)
         }
         None => psi(0),
     }
@@ -553,9 +517,7 @@ pub fn normal_at<T: Real>(
     phi: &Field<T>,
     idx: usize,
 ) -> Option<Vec3<T>> {
-    on_the_fly(grid, scheme, phi, idx, |f, s| {
-        unit(level_gradient(scheme, &f, s), hmin(s)).map(|x| x.0)
-    })
+    on_the_fly(grid, scheme, phi, idx, |f, s| unit(level_gradient(scheme, &f, s), hmin(s)).map(|x| x.0))
 }
 
 /// The curvature at cell `idx` (see the [module docs](self) for definitions and signs), or
@@ -568,9 +530,7 @@ pub fn curvature_at<T: Real>(
     phi: &Field<T>,
     idx: usize,
 ) -> Option<Curvature<T>> {
-    on_the_fly(grid, scheme, phi, idx, |f, s| {
-        level_curvature(scheme, &f, s)
-    })
+    on_the_fly(grid, scheme, phi, idx, |f, s| level_curvature(scheme, &f, s))
 }
 
 /// Fills `psi` from `phi` at every stored cell (saturated cells by a constant, no logarithm).
@@ -578,10 +538,8 @@ fn fill_psi<T: Real>(grid: &Grid<T>, phi: &Field<T>, psi: &mut Field<T>) {
     let e = psi_clamp::<T>();
     let lo = psi_of(T::zero());
     let hi = psi_of(T::one());
-    psi.data
-        .par_chunks_mut(grid.dims()[0])
-        .zip(phi.data.par_chunks(grid.dims()[0]))
-        .for_each(|(out, inp)| {
+    psi.data.par_chunks_mut(grid.dims()[0]).zip(phi.data.par_chunks(grid.dims()[0])).for_each(
+        |(out, inp)| {
             for (o, &p) in out.iter_mut().zip(inp) {
                 *o = if p <= e {
                     lo
@@ -591,7 +549,8 @@ fn fill_psi<T: Real>(grid: &Grid<T>, phi: &Field<T>, psi: &mut Field<T>) {
                     psi_of(p)
                 };
             }
-        });
+        },
+    );
 }
 
 /// Field-level geometry: caches `psi = atanh(2 phi - 1)` for the inverse-tanh schemes (and the
@@ -632,16 +591,8 @@ impl<T: Real> Geometry<T> {
         Geometry {
             scheme,
             beta: T::one(),
-            level: if scheme.uses_psi() {
-                Field::zeros(grid)
-            } else {
-                empty()
-            },
-            psi: if scheme == NormalScheme::Deconvolved {
-                Field::zeros(grid)
-            } else {
-                empty()
-            },
+            level: if scheme.uses_psi() { Field::zeros(grid) } else { empty() },
+            psi: if scheme == NormalScheme::Deconvolved { Field::zeros(grid) } else { empty() },
         }
     }
 
@@ -673,11 +624,7 @@ impl<T: Real> Geometry<T> {
             return;
         }
         let deconvolve = self.scheme == NormalScheme::Deconvolved;
-        let psi = if deconvolve {
-            &mut self.psi
-        } else {
-            &mut self.level
-        };
+        let psi = if deconvolve { &mut self.psi } else { &mut self.level };
         fill_psi(grid, phi, psi);
         if deconvolve {
             let s = Stencil::new(grid);
@@ -692,17 +639,8 @@ impl<T: Real> Geometry<T> {
     }
 
     #[inline(always)]
-    fn with_level<R>(
-        &self,
-        phi: &Field<T>,
-        idx: usize,
-        f: impl FnOnce(&dyn Fn(isize) -> T) -> R,
-    ) -> R {
-        let d = if self.scheme.uses_psi() {
-            &self.level.data
-        } else {
-            &phi.data
-        };
+    fn with_level<R>(&self, phi: &Field<T>, idx: usize, f: impl FnOnce(&dyn Fn(isize) -> T) -> R) -> R {
+        let d = if self.scheme.uses_psi() { &self.level.data } else { &phi.data };
         f(&|o: isize| d[(idx as isize + o) as usize])
     }
 
@@ -752,13 +690,7 @@ impl<T: Real> Geometry<T> {
     }
 
     /// Mean curvature at the interior cells of `band` into `out`; zero elsewhere.
-    pub fn mean_curvature(
-        &self,
-        grid: &Grid<T>,
-        phi: &Field<T>,
-        band: Band<T>,
-        out: &mut Field<T>,
-    ) {
+    pub fn mean_curvature(&self, grid: &Grid<T>, phi: &Field<T>, band: Band<T>, out: &mut Field<T>) {
         crate::grid::ops::par_interior(grid, &mut out.data, |idx, _, _, _| {
             if band.contains(phi.data[idx]) {
                 self.curvature(grid, phi, idx).map_or(T::zero(), |c| c.mean)
@@ -799,13 +731,11 @@ impl<T: Real> Geometry<T> {
                 for i in g0..g0 + nx {
                     let idx = row * dx + i;
                     let k = if band.contains(phi.data[idx]) {
-                        self.curvature(grid, phi, idx)
-                            .map_or([T::zero(); 6], |k| k.tensor)
+                        self.curvature(grid, phi, idx).map_or([T::zero(); 6], |k| k.tensor)
                     } else {
                         [T::zero(); 6]
                     };
-                    (l0[i], l1[i], l2[i], l3[i], l4[i], l5[i]) =
-                        (k[0], k[1], k[2], k[3], k[4], k[5]);
+                    (l0[i], l1[i], l2[i], l3[i], l4[i], l5[i]) = (k[0], k[1], k[2], k[3], k[4], k[5]);
                 }
             });
     }
@@ -814,11 +744,7 @@ impl<T: Real> Geometry<T> {
 /// `delta = |grad phi|` (2.26) at the interior cells of `band` into `out`; zero elsewhere.
 pub fn delta_in_band<T: Real>(grid: &Grid<T>, phi: &Field<T>, band: Band<T>, out: &mut Field<T>) {
     crate::grid::ops::par_interior(grid, &mut out.data, |idx, _, _, _| {
-        if band.contains(phi.data[idx]) {
-            delta_at(grid, phi, idx)
-        } else {
-            T::zero()
-        }
+        if band.contains(phi.data[idx]) { delta_at(grid, phi, idx) } else { T::zero() }
     });
 }
 

@@ -174,11 +174,7 @@ impl<T: Real> Reconstruction<T> {
         tiny: T,
         quadrature: CellQuadrature,
     ) -> (Self, Option<OffsetSolve<T>>) {
-        let a = [
-            normal[0] * scale[0],
-            normal[1] * scale[1],
-            normal[2] * scale[2],
-        ];
+        let a = [normal[0] * scale[0], normal[1] * scale[1], normal[2] * scale[2]];
         match solve_offset(a, phi, tiny, quadrature) {
             Some(s) => (Self::with_offset(a, s.offset), Some(s)),
             None => (Reconstruction::uniform(phi, T::zero()), None),
@@ -213,11 +209,7 @@ impl<T: Real> Reconstruction<T> {
         if self.is_uniform() {
             return (self.d, T::zero());
         }
-        let base = if upper {
-            self.e * self.p[axis]
-        } else {
-            self.e / self.p[axis]
-        };
+        let base = if upper { self.e * self.p[axis] } else { self.e / self.p[axis] };
         let (t1, t2) = others(axis);
         let (g1, g2) = (self.g[t1], self.g[t2]);
         let half = T::lit(0.5);
@@ -244,12 +236,7 @@ enum CellAverage<T> {
     /// Gauss points: `F = mean 1 / (1 + exp(-2 D) w_q)`.
     Gauss { w: [T; 8], count: usize },
     /// Exact along `am = |a_m|`, Gauss in the others at offsets `o_q = sum a_k xi_k`.
-    Exact {
-        am: T,
-        e2: T,
-        offsets: [T; 4],
-        count: usize,
-    },
+    Exact { am: T, e2: T, offsets: [T; 4], count: usize },
 }
 
 impl<T: Real> CellAverage<T> {
@@ -273,12 +260,7 @@ impl<T: Real> CellAverage<T> {
                 }
                 count *= 2;
             }
-            return CellAverage::Exact {
-                am,
-                e2: (-(am + am)).exp(),
-                offsets,
-                count,
-            };
+            return CellAverage::Exact { am, e2: (-(am + am)).exp(), offsets, count };
         }
         let mut w = [T::one(); 8];
         let mut count = 1;
@@ -321,12 +303,7 @@ impl<T: Real> CellAverage<T> {
                 let inv = one / T::from_usize(*count).unwrap_or(one);
                 (f * inv, fp * inv)
             }
-            CellAverage::Exact {
-                am,
-                e2,
-                offsets,
-                count,
-            } => {
+            CellAverage::Exact { am, e2, offsets, count } => {
                 // int_{-1/2}^{1/2} sigma(2 (am xi + z)) dxi = (softplus(x1) - softplus(x0)) / (2 am)
                 // with x0 = 2 z - am, x1 = 2 z + am; the difference of softplus values is
                 // formed with one logarithm and no cancellation; its derivative in D is
@@ -348,10 +325,7 @@ impl<T: Real> CellAverage<T> {
                     } else {
                         let e1 = (-x1).exp();
                         let e0 = x0.exp();
-                        (
-                            x1 + ((one + e1) / (one + e0)).ln(),
-                            one / (one + e1) - e0 / (one + e0),
-                        )
+                        (x1 + ((one + e1) / (one + e0)).ln(), one / (one + e1) - e0 / (one + e0))
                     };
                     f += diff;
                     fp += slope;
@@ -427,11 +401,7 @@ pub fn solve_offset<T: Real>(
             break;
         }
     }
-    Some(OffsetSolve {
-        offset: if flip { -d } else { d },
-        mean_slope: slope,
-        iterations: it,
-    })
+    Some(OffsetSolve { offset: if flip { -d } else { d }, mean_slope: slope, iterations: it })
 }
 
 /// Starting value of the offset for `phi <= 1/2`. For the Gauss rule: `logit(phi) / 2` (exact
@@ -481,8 +451,7 @@ mod tests {
     #[test]
     fn uniform_cells() {
         for phi in [0.0f64, 1.0, 1e-12, f64::NAN] {
-            let (r, s) =
-                Reconstruction::new(phi, [1.0, 0.0, 0.0], [1.0; 3], 1e-8, Default::default());
+            let (r, s) = Reconstruction::new(phi, [1.0, 0.0, 0.0], [1.0; 3], 1e-8, Default::default());
             assert!(s.is_none() && r.is_uniform());
         }
         let (r, s) = Reconstruction::new(0.4f64, [0.0; 3], [1.0; 3], 1e-8, Default::default());

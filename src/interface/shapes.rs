@@ -74,10 +74,7 @@ pub struct Smoothing {
 
 impl Default for Smoothing {
     fn default() -> Self {
-        Smoothing {
-            beta: 1.0,
-            points: 4,
-        }
+        Smoothing { beta: 1.0, points: 4 }
     }
 }
 
@@ -91,11 +88,7 @@ impl Smoothing {
             ));
         }
         if !(1..=16).contains(&self.points) {
-            return Err(Error::invalid(
-                "Smoothing::points",
-                self.points,
-                "1 to 16 Gauss points per axis",
-            ));
+            return Err(Error::invalid("Smoothing::points", self.points, "1 to 16 Gauss points per axis"));
         }
         Ok(())
     }
@@ -105,20 +98,12 @@ fn check_center(c: [f64; 3]) -> Result<()> {
     if c.iter().all(|x| x.is_finite()) {
         Ok(())
     } else {
-        Err(Error::invalid(
-            "center",
-            format!("{c:?}"),
-            "finite coordinates",
-        ))
+        Err(Error::invalid("center", format!("{c:?}"), "finite coordinates"))
     }
 }
 
 fn check_length(name: &'static str, r: f64) -> Result<()> {
-    if r.is_finite() && r > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::invalid(name, r, "a finite length > 0"))
-    }
+    if r.is_finite() && r > 0.0 { Ok(()) } else { Err(Error::invalid(name, r, "a finite length > 0")) }
 }
 
 /// A sphere.
@@ -143,11 +128,7 @@ fn radial(c: [f64; 3], x: [f64; 3], dims: usize) -> ([f64; 3], f64) {
         d[2] = 0.0;
     }
     let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    if r > 0.0 {
-        ([d[0] / r, d[1] / r, d[2] / r], r)
-    } else {
-        ([1.0, 0.0, 0.0], 0.0)
-    }
+    if r > 0.0 { ([d[0] / r, d[1] / r, d[2] / r], r) } else { ([1.0, 0.0, 0.0], 0.0) }
 }
 
 impl Shape for Sphere {
@@ -205,11 +186,7 @@ impl Shape for Circle {
         let k = 1.0 / self.radius;
         SurfacePoint {
             distance: self.radius - r,
-            point: [
-                self.center[0] + self.radius * e[0],
-                self.center[1] + self.radius * e[1],
-                x[2],
-            ],
+            point: [self.center[0] + self.radius * e[0], self.center[1] + self.radius * e[1], x[2]],
             normal: [-e[0], -e[1], 0.0],
             principal: [k, 0.0],
             mean_curvature: k,
@@ -303,10 +280,7 @@ impl Ellipse {
         for a in semi_axes {
             check_length("Ellipse semi-axis", a)?;
         }
-        Ok(Ellipse {
-            center: c,
-            semi_axes,
-        })
+        Ok(Ellipse { center: c, semi_axes })
     }
 }
 
@@ -318,11 +292,8 @@ impl Shape for Ellipse {
         let [a, b] = self.semi_axes;
         let y = [x[0] - self.center[0], x[1] - self.center[1]];
         let swap = b > a;
-        let (e0, e1, y0, y1) = if swap {
-            (b, a, y[1].abs(), y[0].abs())
-        } else {
-            (a, b, y[0].abs(), y[1].abs())
-        };
+        let (e0, e1, y0, y1) =
+            if swap { (b, a, y[1].abs(), y[0].abs()) } else { (a, b, y[0].abs(), y[1].abs()) };
         let (x0, x1) = ellipse_closest(e0, e1, y0, y1);
         let (px, py) = if swap { (x1, x0) } else { (x0, x1) };
         let p = [
@@ -447,11 +418,7 @@ fn ellipsoid_closest(e: [f64; 3], y: [f64; 3]) -> [f64; 3] {
                 if g != 0.0 {
                     let r = [(e[0] / e[2]).powi(2), (e[1] / e[2]).powi(2)];
                     let sb = get_root3(r, z, g);
-                    [
-                        r[0] * y[0] / (sb + r[0]),
-                        r[1] * y[1] / (sb + r[1]),
-                        y[2] / (sb + 1.0),
-                    ]
+                    [r[0] * y[0] / (sb + r[0]), r[1] * y[1] / (sb + r[1]), y[2] / (sb + 1.0)]
                 } else {
                     y
                 }
@@ -519,12 +486,7 @@ impl Biconcave {
     /// A biconcave shape with coefficients `c = (c1, c2, c3)` and symmetry `axis` (0, 1 or 2).
     /// Errors: non-positive radius, axis > 2, coefficients giving a non-positive thickness on
     /// `[0, 1)`.
-    pub fn with_coefficients(
-        center: [f64; 3],
-        radius: f64,
-        axis: usize,
-        c: [f64; 3],
-    ) -> Result<Self> {
+    pub fn with_coefficients(center: [f64; 3], radius: f64, axis: usize, c: [f64; 3]) -> Result<Self> {
         check_center(center)?;
         check_length("Biconcave radius", radius)?;
         if axis > 2 {
@@ -538,13 +500,7 @@ impl Biconcave {
                 "finite c1, c2, c3 with c1 + c2 s + c3 s^2 > 0 on [0, 1]",
             ));
         }
-        let mut b = Biconcave {
-            center,
-            radius,
-            axis,
-            c,
-            table: Vec::with_capacity(BICONCAVE_SAMPLES + 1),
-        };
+        let mut b = Biconcave { center, radius, axis, c, table: Vec::with_capacity(BICONCAVE_SAMPLES + 1) };
         for k in 0..=BICONCAVE_SAMPLES {
             let t = PI * k as f64 / BICONCAVE_SAMPLES as f64;
             let m = b.meridian(t);
@@ -565,10 +521,7 @@ impl Biconcave {
         let h = 0.5 * a;
         let x = h * f * co;
         let xp = h * (2.0 * fp * s * co * co - f * s);
-        let xpp = h
-            * (4.0 * fpp * sg * co * co * co + 2.0 * fp * co * co * co
-                - 6.0 * fp * sg * co
-                - f * co);
+        let xpp = h * (4.0 * fpp * sg * co * co * co + 2.0 * fp * co * co * co - 6.0 * fp * sg * co - f * co);
         [x, a * s, xp, a * co, xpp, -a * s]
     }
 
@@ -637,16 +590,8 @@ impl Shape for Biconcave {
         let mut best = [(f64::INFINITY, 0usize); 2];
         for k in 0..m {
             let v = d2(&self.table[k]);
-            let left = if k > 0 {
-                d2(&self.table[k - 1])
-            } else {
-                f64::INFINITY
-            };
-            let right = if k + 1 < m {
-                d2(&self.table[k + 1])
-            } else {
-                f64::INFINITY
-            };
+            let left = if k > 0 { d2(&self.table[k - 1]) } else { f64::INFINITY };
+            let right = if k + 1 < m { d2(&self.table[k + 1]) } else { f64::INFINITY };
             if v <= left && v <= right {
                 if v < best[0].0 {
                     best[1] = best[0];
@@ -675,20 +620,13 @@ impl Shape for Biconcave {
         let [xm, rm, xp, rp, xpp, rpp] = self.meridian(t_best);
         let speed = (xp * xp + rp * rp).sqrt();
         let km = (xp * rpp - rp * xpp) / speed.powi(3);
-        let kp = if rm > 1e-9 * self.radius {
-            -xp / (speed * rm)
-        } else {
-            km
-        };
+        let kp = if rm > 1e-9 * self.radius { -xp / (speed * rm) } else { km };
         // Inward normal in the meridian plane: (-R', X') / |v|.
         let (na, nr) = (-rp / speed, xp / speed);
         let mut normal = [nr * er[0], nr * er[1], nr * er[2]];
         normal[self.axis] = na;
-        let mut point = [
-            self.center[0] + rm * er[0],
-            self.center[1] + rm * er[1],
-            self.center[2] + rm * er[2],
-        ];
+        let mut point =
+            [self.center[0] + rm * er[0], self.center[1] + rm * er[1], self.center[2] + rm * er[2]];
         point[self.axis] = self.center[self.axis] + xm;
         let dist = dbest.sqrt();
         let (k1, k2) = if km >= kp { (km, kp) } else { (kp, km) };
@@ -727,12 +665,7 @@ impl<F: Fn([f64; 3]) -> f64 + Sync> SignedDistanceFn<F> {
         if !(dimension == 2 || dimension == 3) {
             return Err(Error::invalid("dimension", dimension, "2 or 3"));
         }
-        Ok(SignedDistanceFn {
-            f,
-            dimension,
-            center: None,
-            step: 1e-4,
-        })
+        Ok(SignedDistanceFn { f, dimension, center: None, step: 1e-4 })
     }
 
     /// Sets the finite-difference step (errors unless finite and positive).
@@ -812,9 +745,8 @@ impl<F: Fn([f64; 3]) -> f64 + Sync> Shape for SignedDistanceFn<F> {
         }
         let n = [g[0] / gn, g[1] / gn, g[2] / gn];
         // Curvature tensor C = -P S P / |g|; k1 + k2 = tr C, k1 k2 = (tr^2 - tr C^2) / 2.
-        let pm: [[f64; 3]; 3] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| f64::from(u8::from(i == j)) - n[i] * n[j])
-        });
+        let pm: [[f64; 3]; 3] =
+            std::array::from_fn(|i| std::array::from_fn(|j| f64::from(u8::from(i == j)) - n[i] * n[j]));
         let mut c = [[0.0; 3]; 3];
         for i in 0..3 {
             for j in 0..3 {
@@ -828,10 +760,7 @@ impl<F: Fn([f64; 3]) -> f64 + Sync> Shape for SignedDistanceFn<F> {
             }
         }
         let tr = c[0][0] + c[1][1] + c[2][2];
-        let tr2: f64 = (0..3)
-            .flat_map(|i| (0..3).map(move |j| (i, j)))
-            .map(|(i, j)| c[i][j] * c[j][i])
-            .sum();
+        let tr2: f64 = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| c[i][j] * c[j][i]).sum();
         let (principal, mean) = if self.dimension == 2 {
             ([tr, 0.0], tr)
         } else {
@@ -840,13 +769,7 @@ impl<F: Fn([f64; 3]) -> f64 + Sync> Shape for SignedDistanceFn<F> {
             let disc = (hm * hm - kg).max(0.0).sqrt();
             ([hm + disc, hm - disc], hm)
         };
-        SurfacePoint {
-            distance: s,
-            point: p,
-            normal: n,
-            principal,
-            mean_curvature: mean,
-        }
+        SurfacePoint { distance: s, point: p, normal: n, principal, mean_curvature: mean }
     }
     fn center(&self) -> Option<[f64; 3]> {
         self.center
@@ -903,8 +826,7 @@ fn cell_averages<T: Real>(
     let h = grid.h().map(|x| x.f64());
     let planar = grid.is_2d();
     let (gx, gw) = gauss_legendre(sm.points);
-    let halfdiag =
-        0.5 * (h[0] * h[0] + h[1] * h[1] + if planar { 0.0 } else { h[2] * h[2] }).sqrt();
+    let halfdiag = 0.5 * (h[0] * h[0] + h[1] * h[1] + if planar { 0.0 } else { h[2] * h[2] }).sqrt();
     let lower = grid.lower().map(|x| x.f64());
     let upper = grid.upper().map(|x| x.f64());
     let periodic: [bool; 3] = std::array::from_fn(|d| grid.is_periodic(d) && grid.n()[d] > 1);
@@ -921,9 +843,7 @@ fn cell_averages<T: Real>(
         }
     };
     let cell = |i: usize, j: usize, k: usize| -> [f64; 2] {
-        let mut xc = grid
-            .cell_center(i as isize, j as isize, k as isize)
-            .map(|x| x.f64());
+        let mut xc = grid.cell_center(i as isize, j as isize, k as isize).map(|x| x.f64());
         if let Some(ctr) = center {
             for d in 0..3 {
                 if periodic[d] {
@@ -937,11 +857,7 @@ fn cell_averages<T: Real>(
             return [f64::NAN; 2];
         }
         if 2.0 * bp * (s0.abs() - halfdiag) > 40.0 {
-            return if 2.0 * bp * s0.abs() > 80.0 {
-                [if s0 > 0.0 { 1.0 } else { 0.0 }, 0.0]
-            } else {
-                at(xc)
-            };
+            return if 2.0 * bp * s0.abs() > 80.0 { [if s0 > 0.0 { 1.0 } else { 0.0 }, 0.0] } else { at(xc) };
         }
         let mut acc = [0.0; 2];
         let nz = if planar { 1 } else { gx.len() };
@@ -949,11 +865,7 @@ fn cell_averages<T: Real>(
             let (oz, wz) = if planar { (0.0, 1.0) } else { (gx[qz], gw[qz]) };
             for (qy, &wy) in gw.iter().enumerate() {
                 for (qx, &wx) in gw.iter().enumerate() {
-                    let p = [
-                        xc[0] + gx[qx] * h[0],
-                        xc[1] + gx[qy] * h[1],
-                        xc[2] + oz * h[2],
-                    ];
+                    let p = [xc[0] + gx[qx] * h[0], xc[1] + gx[qy] * h[1], xc[2] + oz * h[2]];
                     let v = at(p);
                     let w = wx * wy * wz;
                     acc[0] += w * v[0];
@@ -1010,11 +922,7 @@ fn profile(z: f64) -> (f64, f64) {
 /// let excess = eulermembrane::interface::shapes::smoothed_volume_excess(0.25, 1.0 / 32.0, 1.0);
 /// assert!((vol / s.volume().unwrap() - 1.0 - excess).abs() < 0.002);
 /// ```
-pub fn smoothed_phi<T: Real>(
-    grid: &Grid<T>,
-    shape: &dyn Shape,
-    smoothing: &Smoothing,
-) -> Result<Field<T>> {
+pub fn smoothed_phi<T: Real>(grid: &Grid<T>, shape: &dyn Shape, smoothing: &Smoothing) -> Result<Field<T>> {
     let v = cell_averages(grid, shape, smoothing, false)?;
     Ok(to_field(grid, &v, 0))
 }
@@ -1050,11 +958,7 @@ mod tests {
             let (x, w) = gauss_legendre(n);
             for p in 0..2 * n {
                 let q: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(p as i32)).sum();
-                let exact = if p % 2 == 1 {
-                    0.0
-                } else {
-                    2.0 * 0.5f64.powi(p as i32 + 1) / (p as f64 + 1.0)
-                };
+                let exact = if p % 2 == 1 { 0.0 } else { 2.0 * 0.5f64.powi(p as i32 + 1) / (p as f64 + 1.0) };
                 assert!((q - exact).abs() < 1e-14, "n={n} p={p}");
             }
         }
@@ -1063,12 +967,7 @@ mod tests {
     #[test]
     fn ellipsoid_closest_point_is_orthogonal() {
         let e = Ellipsoid::new([0.1, 0.2, 0.3], [0.5, 0.3, 0.2]).unwrap();
-        for x in [
-            [0.5, 0.4, 0.1],
-            [0.12, 0.21, 0.29],
-            [1.0, -0.3, 0.8],
-            [0.1, 0.2, 0.35],
-        ] {
+        for x in [[0.5, 0.4, 0.1], [0.12, 0.21, 0.29], [1.0, -0.3, 0.8], [0.1, 0.2, 0.35]] {
             let sp = e.closest(x);
             let d: [f64; 3] = std::array::from_fn(|k| x[k] - sp.point[k]);
             // x - p is parallel to the normal.
@@ -1104,10 +1003,7 @@ mod tests {
             let p = b.meridian(t + e);
             let q = b.meridian(t - e);
             for k in 0..4 {
-                assert!(
-                    ((p[k] - q[k]) / (2.0 * e) - m[k + 2]).abs() < 1e-7,
-                    "t={t} k={k}"
-                );
+                assert!(((p[k] - q[k]) / (2.0 * e) - m[k + 2]).abs() < 1e-7, "t={t} k={k}");
             }
         }
         // Dimple: concave at the centre of the faces.
@@ -1115,15 +1011,10 @@ mod tests {
         assert!(sp.mean_curvature < 0.0 && sp.distance < 0.0);
         assert!((sp.distance + (0.5 - 0.175)).abs() < 1e-9);
         // The SDF closure version of a sphere agrees with the sphere.
-        let f = SignedDistanceFn::new(3, |x: [f64; 3]| {
-            0.3 - (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
-        })
-        .unwrap();
+        let f =
+            SignedDistanceFn::new(3, |x: [f64; 3]| 0.3 - (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt())
+                .unwrap();
         let sp = f.closest([0.2, 0.1, 0.0]);
-        assert!(
-            (sp.mean_curvature - 1.0 / 0.3).abs() < 1e-4,
-            "{}",
-            sp.mean_curvature
-        );
+        assert!((sp.mean_curvature - 1.0 / 0.3).abs() < 1e-4, "{}", sp.mean_curvature);
     }
 }
