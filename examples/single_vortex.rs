@@ -21,6 +21,7 @@
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{Ellipse, Smoothing, smoothed_fields};
 use eulermembrane::interface::{AdvectionParams, Advector, CellQuadrature, NormalScheme};
+use eulermembrane::io::plot::{Figure, LineStyle, Panels, contour_segments};
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
@@ -282,113 +283,42 @@ fn print_table(runs: &[Run], o: &Opts) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Plots: a minimal SVG writer (to be replaced by `crate::io::plot` when it lands).
-
-/// Contour segments of a cell-centred field at `level` by marching squares on the dual grid.
-fn contour(g: &Grid<f64>, f: &Field<f64>, level: f64) -> Vec<[[f64; 2]; 2]> {
-    let n = g.n();
-    let h = g.h();
-    let mut segs = Vec::new();
-    let c = |i: usize, j: usize| f.data[g.idx_u(i % n[0], j % n[1], 0)] - level;
-    for j in 0..n[1] - 1 {
-        for i in 0..n[0] - 1 {
-            let v = [c(i, j), c(i + 1, j), c(i + 1, j + 1), c(i, j + 1)];
-            let p = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-            let mut pts = Vec::new();
-            for e in 0..4 {
-                let (a, b) = (e, (e + 1) % 4);
-                if (v[a] < 0.0) != (v[b] < 0.0) {
-                    let t = v[a] / (v[a] - v[b]);
-                    let q = [p[a][0] + t * (p[b][0] - p[a][0]), p[a][1] + t * (p[b][1] - p[a][1])];
-                    pts.push([(i as f64 + 0.5 + q[0]) * h[0], (j as f64 + 0.5 + q[1]) * h[1]]);
-                }
-            }
-            if pts.len() == 2 {
-                segs.push([pts[0], pts[1]]);
-            } else if pts.len() == 4 {
-                segs.push([pts[0], pts[1]]);
-                segs.push([pts[2], pts[3]]);
-            }
-        }
-    }
-    segs
-}
-
-struct Svg {
-    body: String,
-    w: f64,
-    h: f64,
-}
-
-impl Svg {
-    fn new(w: f64, h: f64) -> Self {
-        Svg { body: String::new(), w, h }
-    }
-    fn line(&mut self, a: [f64; 2], b: [f64; 2], style: &str) {
-        let _ = writeln!(
-            self.body,
-            r#"<line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" {style}/>"#,
-            a[0], a[1], b[0], b[1]
-        );
-    }
-    fn text(&mut self, x: f64, y: f64, s: &str) {
-        let _ = writeln!(
-            self.body,
-            r#"<text x="{x:.1}" y="{y:.1}" font-family="sans-serif" font-size="13">{s}</text>"#
-        );
-    }
-    fn rect(&mut self, x: f64, y: f64, w: f64, h: f64) {
-        let _ = writeln!(
-            self.body,
-            r#"<rect x="{x:.1}" y="{y:.1}" width="{w:.1}" height="{h:.1}" fill="none" stroke="black"/>"#
-        );
-    }
-    fn save(&self, path: &std::path::Path) -> std::io::Result<()> {
-        let s = format!(
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{}"><rect width="100%" height="100%" fill="white"/>{}</svg>"#,
-            self.w, self.h, self.body
-        );
-        std::fs::write(path, s)
-    }
-}
+// Plots (Figs. 3 and 4) with `eulermembrane::io::plot`.
 
 type Snap = (f64, Field<f64>, Field<f64>);
 
-fn plots(g: &Grid<f64>, snaps: &[Snap], o: &Opts, n: usize) -> std::io::Result<()> {
+/// Contour segments of a cell-centred 2D field at `level` (marching squares on cell centres).
+fn contour(g: &Grid<f64>, f: &Field<f64>, level: f64) -> Vec<[(f64, f64); 2]> {
+    let [nx, ny, _] = g.n();
+    let h = g.h();
+    let values: Vec<f64> = g.cells().map(|(i, j, k)| f.data[g.idx_u(i, j, k)]).collect();
+    contour_segments(nx, ny, 0.5 * h[0], 0.5 * h[1], h[0], h[1], &values, level)
+}
+
+fn plots(g: &Grid<f64>, snaps: &[Snap], o: &Opts, n: usize) -> eulermembrane::Result<()> {
     let dir = std::path::Path::new(&o.out);
-    std::fs::create_dir_all(dir)?;
-    // Fig. 3: contours at t = 0, T/2, T over the unit square.
-    let (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
-    let px = 300.0;
-    let mut svg = Svg::new(3.0 * (px + 20.0) + 20.0, px + 60.0);
-    let styles = [
-        ("0.05", r#"stroke="blue" stroke-dasharray="2,2""#),
-        ("0.5", r#"stroke="black""#),
-        ("0.95", r#"stroke="red" stroke-dasharray="6,3""#),
-    ];
-    for (p, (t, phi, _)) in snaps.iter().enumerate() {
-        let ox = 20.0 + p as f64 * (px + 20.0);
-        let oy = 30.0;
-        svg.rect(ox, oy, px, px);
-        svg.text(ox, oy - 8.0, &format!("N={n}, t={t:.2}"));
-        let map =
-            |q: [f64; 2]| [ox + (q[0] - x0) / (x1 - x0) * px, oy + (1.0 - (q[1] - y0) / (y1 - y0)) * px];
-        for (lvl, style) in styles {
-            for s in contour(g, phi, lvl.parse().unwrap_or(0.5)) {
-                let inside = |q: [f64; 2]| q[0] >= x0 && q[0] <= x1 && q[1] >= y0 && q[1] <= y1;
-                if inside(s[0]) && inside(s[1]) {
-                    svg.line(map(s[0]), map(s[1]), &format!(r#"{style} stroke-width="1""#));
-                }
-            }
+    // Fig. 3: contours phi = 0.05, 0.5, 0.95 at t = 0, T/2, T.
+    let mut panels = Panels::new(3);
+    for (t, phi, _) in snaps {
+        let mut fig = Figure::new(format!("N = {n}, t = {t:.2}"))
+            .size(360.0, 380.0)
+            .x_range(0.0, 1.0)
+            .y_range(0.0, 1.0)
+            .equal_aspect(true)
+            .x_label("x")
+            .y_label("y");
+        let styles = [(0.05, LineStyle::Dotted), (0.5, LineStyle::Solid), (0.95, LineStyle::Dashed)];
+        for (level, style) in styles {
+            fig.segments(contour(g, phi, level), &format!("phi = {level}")).style(style);
         }
+        panels.push(fig);
     }
-    svg.text(20.0, px + 55.0, "phi = 0.05 (blue dotted), 0.5 (black), 0.95 (red dashed)");
-    svg.save(&dir.join(format!("contours_n{n}.svg")))?;
+    panels.save(dir.join(format!("contours_n{n}.svg")))?;
 
     // Fig. 4: kappa_R delta_bar across the band: its peak in each 5-degree sector of polar angle
     // about the initial centre (the band's maximum, which numerical diffusion would lower).
     let h = g.h()[0];
-    let sample = |phi: &Field<f64>, kt: &Field<f64>| -> Vec<[f64; 2]> {
+    let sample = |phi: &Field<f64>, kt: &Field<f64>| -> (Vec<f64>, Vec<f64>) {
         let bins = 72;
         let mut peak = vec![0.0f64; bins];
         for (i, j, k) in g.cells() {
@@ -401,39 +331,16 @@ fn plots(g: &Grid<f64>, snaps: &[Snap], o: &Opts, n: usize) -> std::io::Result<(
             let b = (((th + 180.0) / 360.0 * bins as f64) as usize).min(bins - 1);
             peak[b] = peak[b].max(kt.data[id] * h);
         }
-        (0..bins).map(|b| [-180.0 + (b as f64 + 0.5) * 360.0 / bins as f64, peak[b]]).collect()
+        ((0..bins).map(|b| -180.0 + (b as f64 + 0.5) * 360.0 / bins as f64).collect(), peak)
     };
-    let first = &snaps[0];
-    let last = &snaps[snaps.len() - 1];
-    let curves =
-        [("t=0 (exact)", sample(&first.1, &first.2), "black"), ("t=T", sample(&last.1, &last.2), "red")];
-    let ymax = curves.iter().flat_map(|c| c.1.iter().map(|p| p[1])).fold(0.0f64, f64::max) * 1.1;
-    let (w, hh) = (640.0, 360.0);
-    let mut svg = Svg::new(w + 80.0, hh + 80.0);
-    let (ox, oy) = (60.0, 20.0);
-    svg.rect(ox, oy, w, hh);
-    let map = |p: [f64; 2]| [ox + (p[0] + 180.0) / 360.0 * w, oy + (1.0 - p[1] / ymax) * hh];
-    for (k, (name, pts, color)) in curves.iter().enumerate() {
-        for s in pts.windows(2) {
-            svg.line(map(s[0]), map(s[1]), &format!(r#"stroke="{color}" stroke-width="1.5""#));
-        }
-        svg.line(
-            [ox + 20.0, oy + 20.0 + 18.0 * k as f64],
-            [ox + 50.0, oy + 20.0 + 18.0 * k as f64],
-            &format!(r#"stroke="{color}" stroke-width="2""#),
-        );
-        svg.text(ox + 56.0, oy + 25.0 + 18.0 * k as f64, name);
-    }
-    for k in 0..=4 {
-        let yv = ymax * k as f64 / 4.0;
-        svg.text(5.0, map([0.0, yv])[1] + 4.0, &format!("{yv:.2}"));
-        let a = -180.0 + 90.0 * k as f64;
-        svg.text(map([a, 0.0])[0] - 10.0, oy + hh + 18.0, &format!("{a:.0}"));
-    }
-    svg.text(
-        ox + 150.0,
-        oy + hh + 45.0,
-        &format!("peak of kappa_R delta_bar per 5-degree sector vs polar angle (deg), N = {n}"),
-    );
-    svg.save(&dir.join(format!("kappa_profile_n{n}.svg")))
+    let mut fig = Figure::new(format!("peak of kappa_R delta_bar per 5-degree sector, N = {n}"))
+        .x_label("polar angle about (0.5, 0.75) (deg)")
+        .y_label("kappa_R delta_bar")
+        .x_range(-180.0, 180.0);
+    let (first, last) = (&snaps[0], &snaps[snaps.len() - 1]);
+    let (x0, y0) = sample(&first.1, &first.2);
+    fig.line(&x0, &y0, "t = 0 (exact)");
+    let (x1, y1) = sample(&last.1, &last.2);
+    fig.line(&x1, &y1, "t = T").style(LineStyle::Dashed);
+    fig.save(dir.join(format!("kappa_profile_n{n}.svg")))
 }
