@@ -25,17 +25,7 @@ pub fn par_interior<T: Real>(
     out: &mut [T],
     f: impl Fn(usize, usize, usize, usize) -> T + Sync,
 ) {
-    let nx = grid.n()[0];
-    let dx = grid.dims()[0];
-    let g = super::GHOST;
-    out.par_chunks_mut(dx).with_min_len(min_rows(dx)).enumerate().for_each(|(row, line)| {
-        if let Some((j, k)) = grid.row_jk(row) {
-            let base = row * dx;
-            for i in 0..nx {
-                line[g + i] = f(base + g + i, i, j, k);
-            }
-        }
-    });
+    par_interior_update(grid, out, |idx, i, j, k, _| f(idx, i, j, k));
 }
 
 /// Replaces `out[idx]` by `f(idx, i, j, k, out[idx])` for every interior cell, in parallel.
