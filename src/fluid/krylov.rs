@@ -92,6 +92,17 @@ fn no_convergence(solver: &'static str, it: usize, res: f64, tol: f64) -> Error 
     Error::NoConvergence { solver, iterations: it, residual: res, tolerance: tol }
 }
 
+/// `|b|`, or `None` after setting `x = 0` when `b = 0` (the solution, found without iterating).
+fn nonzero_rhs_norm<T: Real, V: InteriorVector<T>>(grid: &Grid<T>, b: &V, x: &mut V) -> Option<T> {
+    let bnorm = b.norm(grid);
+    if bnorm == T::zero() {
+        x.axpby(grid, T::zero(), b, T::zero());
+        None
+    } else {
+        Some(bnorm)
+    }
+}
+
 /// Solves `A x = b` by right-preconditioned BiCGStab, starting from the given `x`.
 pub fn bicgstab<T: Real, V: InteriorVector<T>>(
     grid: &Grid<T>,
@@ -103,11 +114,7 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
     params: KrylovParams,
 ) -> Result<KrylovInfo> {
     let tol = T::lit(params.tolerance);
-    let bnorm = b.norm(grid);
-    if bnorm == T::zero() {
-        x.axpby(grid, T::zero(), b, T::zero());
-        return Ok(KrylovInfo::default());
-    }
+    let Some(bnorm) = nonzero_rhs_norm(grid, b, x) else { return Ok(KrylovInfo::default()) };
     let KrylovWorkspace { r, rhat, p, v, s, t, phat, shat } = ws;
     // r = b - A x
     op.apply(x, r);
@@ -177,11 +184,7 @@ pub fn pcg<T: Real, V: InteriorVector<T>>(
     params: KrylovParams,
 ) -> Result<KrylovInfo> {
     let tol = T::lit(params.tolerance);
-    let bnorm = b.norm(grid);
-    if bnorm == T::zero() {
-        x.axpby(grid, T::zero(), b, T::zero());
-        return Ok(KrylovInfo::default());
-    }
+    let Some(bnorm) = nonzero_rhs_norm(grid, b, x) else { return Ok(KrylovInfo::default()) };
     let KrylovWorkspace { r, p, v: ap, shat: z, .. } = ws;
     op.apply(x, r);
     r.axpby(grid, T::one(), b, -T::one());
