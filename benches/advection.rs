@@ -16,17 +16,9 @@ use std::f64::consts::PI;
 fn setup() -> (Grid<f64>, VectorField<f64>) {
     let n = 64;
     let g = Grid::<f64>::periodic([n; 3], [0.0; 3], [1.0; 3]).unwrap();
-    let h = 1.0 / n as f64;
-    let psi =
-        |i: isize, j: isize| (2.0 * PI * i as f64 * h).sin() * (2.0 * PI * j as f64 * h).cos() / (2.0 * PI);
-    let mut v = VectorField::zeros(&g);
-    for (i, j, k) in g.cells() {
-        let (i, j) = (i as isize, j as isize);
-        let id = g.idx(i, j, k as isize);
-        v.c[0].data[id] = (psi(i, j + 1) - psi(i, j)) / h;
-        v.c[1].data[id] = -(psi(i + 1, j) - psi(i, j)) / h;
-    }
-    v.fill_ghosts(&g);
+    let v = VectorField::from_stream_function(&g, |x| {
+        (2.0 * PI * x[0]).sin() * (2.0 * PI * x[1]).cos() / (2.0 * PI)
+    });
     (g, v)
 }
 

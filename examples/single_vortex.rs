@@ -142,19 +142,10 @@ fn run(n: usize, o: &Opts) -> Result<Run, Box<dyn std::error::Error>> {
     let (mut phi, mut kt) = (phi0.clone(), kt0.clone());
 
     // Stream function at nodes (x_i, y_j) = (i h, j h); face velocities are its differences.
-    let psi = |i: isize, j: isize| {
-        let (x, y) = (i as f64 * h, j as f64 * h);
-        let s = if o.sin { (PI * y).sin().powi(2) } else { (PI * y).cos().powi(2) };
-        (PI * x).sin().powi(2) * s / PI
-    };
-    let mut v0 = VectorField::zeros(&g);
-    for (i, j, k) in g.cells() {
-        let (i, j) = (i as isize, j as isize);
-        let id = g.idx(i, j, k as isize);
-        v0.c[0].data[id] = (psi(i, j + 1) - psi(i, j)) / h;
-        v0.c[1].data[id] = -(psi(i + 1, j) - psi(i, j)) / h;
-    }
-    v0.fill_ghosts(&g);
+    let v0 = VectorField::from_stream_function(&g, |x| {
+        let s = if o.sin { (PI * x[1]).sin().powi(2) } else { (PI * x[1]).cos().powi(2) };
+        (PI * x[0]).sin().powi(2) * s / PI
+    });
     let umax = v0.c[0].data.iter().chain(&v0.c[1].data).fold(0.0f64, |m, x| m.max(x.abs()));
     let t_end = 1.0;
     let steps = (t_end * umax / (o.cfl * h)).ceil() as usize;

@@ -71,16 +71,7 @@ fn walls_and_curvature_tensors() {
     let g = Grid::<f64>::new([20, 20, 20], [0.0; 3], [1.0; 3], bc).unwrap();
     let s = Sphere::new([0.5, 0.3, 0.5], 0.2).unwrap();
     let (mut phi, mut kt) = smoothed_fields(&g, &s, &Smoothing::default()).unwrap();
-    let h = 1.0 / 20.0;
-    let psi = |i: isize, j: isize| (2.0 * PI * i as f64 * h).sin() * (PI * j as f64 * h).sin() / PI;
-    let mut v = VectorField::zeros(&g);
-    for (i, j, k) in g.cells() {
-        let (i, j) = (i as isize, j as isize);
-        let id = g.idx(i, j, k as isize);
-        v.c[0].data[id] = (psi(i, j + 1) - psi(i, j)) / h;
-        v.c[1].data[id] = -(psi(i + 1, j) - psi(i, j)) / h;
-    }
-    v.fill_ghosts(&g);
+    let v = VectorField::from_stream_function(&g, |x| (2.0 * PI * x[0]).sin() * (PI * x[1]).sin() / PI);
     let dt = 0.25 / cfl_number(&g, &v, 1.0);
     let m0 = phi.interior_sum(&g);
     let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
@@ -187,18 +178,8 @@ fn single_vortex_n32_meets_table_1() {
     let e = Ellipse::new([0.5, 0.75], [0.15, 0.105]).unwrap();
     let (phi0, kt0) = smoothed_fields(&g, &e, &Smoothing::default()).unwrap();
     let (mut phi, mut kt) = (phi0.clone(), kt0.clone());
-    let psi = |i: isize, j: isize| {
-        let (x, y) = (i as f64 * h, j as f64 * h);
-        (PI * x).sin().powi(2) * (PI * y).cos().powi(2) / PI
-    };
-    let mut v0 = VectorField::zeros(&g);
-    for (i, j, _) in g.cells() {
-        let (i, j) = (i as isize, j as isize);
-        let id = g.idx(i, j, 0);
-        v0.c[0].data[id] = (psi(i, j + 1) - psi(i, j)) / h;
-        v0.c[1].data[id] = -(psi(i + 1, j) - psi(i, j)) / h;
-    }
-    v0.fill_ghosts(&g);
+    let v0 =
+        VectorField::from_stream_function(&g, |x| (PI * x[0]).sin().powi(2) * (PI * x[1]).cos().powi(2) / PI);
     let steps = (cfl_umax(&g, &v0) / (0.25 * h)).ceil() as usize;
     let dt = 1.0 / steps as f64;
     let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
