@@ -14,6 +14,8 @@
 //! derivative `W_c1c2 = −ψ G_s/(2 c2²)` is not zero, which exercises the term that the paper's
 //! (B.4) drops.
 
+mod common;
+use common::{rodrigues, sphere};
 use eulermembrane::Real;
 use eulermembrane::membrane::{
     NeoHookean, SurfaceLaw, energy_density, jacobian, principal_tensions, small_strain_moduli, stress,
@@ -59,22 +61,6 @@ impl<T: Real> SurfaceLaw<T> for MooneyRivlin<T> {
 
 fn law(gs: f64, psi: f64) -> MooneyRivlin<f64> {
     MooneyRivlin { gs, psi }
-}
-
-fn rodrigues(axis: Vec3<f64>, angle: f64) -> Mat3<f64> {
-    let (s, c) = angle.sin_cos();
-    let [x, y, z] = axis;
-    let t = 1.0 - c;
-    [
-        [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
-        [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
-        [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
-    ]
-}
-
-fn sphere(z: f64, phi: f64) -> Vec3<f64> {
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    [r * phi.cos(), r * phi.sin(), z]
 }
 
 /// `Q diag(a, b, 0) Qᵀ` and `Q e3`: a flat sheet with principal stretches `√a`, `√b`, rotated.

@@ -8,6 +8,8 @@
 //! normal of the deformed material plane. Laws: neo-Hookean with `E_s ∈ [0.1, 10]`, Skalak with
 //! `E_s ∈ [0.1, 10]`, `α ∈ [0, 50]`. 256 cases per property.
 
+mod common;
+use common::{rodrigues, sphere};
 use eulermembrane::membrane::{
     NeoHookean, Skalak, SurfaceLaw, energy_density, equibiaxial_stretch, equibiaxial_tension, h_tensor,
     jacobian, stress, stress_and_jacobian, stretching, surface_kinematics, tension_invariants,
@@ -66,22 +68,6 @@ impl State {
     fn n(&self) -> Vec3<f64> {
         normal_of(&self.f, &self.n_ref)
     }
-}
-
-fn rodrigues(axis: Vec3<f64>, angle: f64) -> Mat3<f64> {
-    let (s, c) = angle.sin_cos();
-    let [x, y, z] = axis;
-    let t = 1.0 - c;
-    [
-        [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
-        [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
-        [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
-    ]
-}
-
-fn sphere(z: f64, phi: f64) -> Vec3<f64> {
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    [r * phi.cos(), r * phi.sin(), z]
 }
 
 fn cofactor(f: &Mat3<f64>) -> Mat3<f64> {
