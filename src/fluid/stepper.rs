@@ -378,11 +378,11 @@ impl<T: Real> FlowStepper<T> {
 
         // 4. Solve the predictor from v^n.
         ws.vstar.copy_from(&self.v);
+        // Extremes of the materials: the preconditioner's reference values and the viscous number.
+        let (rho_lo, mu_hi) = (rho.range(g).0, self.materials.mu.range(g).1);
         let (iters, resid) = match self.config.predictor {
             PredictorSolver::Krylov(params) => {
-                let (lo_r, _) = rho.range(g);
-                let (_, hi_mu) = self.materials.mu.range(g);
-                ws.precond.set(lo_r * inv_dt, half * hi_mu);
+                ws.precond.set(rho_lo * inv_dt, half * mu_hi);
                 let kws = ws.krylov.get_or_insert_with(|| KrylovWorkspace::new(g));
                 let info = bicgstab(g, &op, &mut ws.precond, &ws.rhs, &mut ws.vstar, kws, params)?;
                 (info.iterations, info.residual)
@@ -415,7 +415,7 @@ impl<T: Real> FlowStepper<T> {
             predictor_residual: resid,
             poisson_iterations: pinfo.iterations,
             cfl: self.cfl(dt),
-            viscous_number: self.viscous_number(dt),
+            viscous_number: viscous_number(g, rho_lo, mu_hi, dt),
         })
     }
 
@@ -441,12 +441,15 @@ impl<T: Real> FlowStepper<T> {
     /// `max(mu / rho) dt / min(h)^2`.
     pub fn viscous_number(&self, dt: T) -> f64 {
         let g = &self.grid;
-        let (_, mu_hi) = self.materials.mu.range(g);
-        let (rho_lo, _) = self.materials.rho.range(g);
-        let h = g.h();
-        let hmin = h[0].min(h[1]).min(h[2]);
-        (mu_hi / rho_lo * dt / (hmin * hmin)).f64()
+        viscous_number(g, self.materials.rho.range(g).0, self.materials.mu.range(g).1, dt)
     }
+}
+
+/// `mu_hi / rho_lo * dt / min(h)^2`.
+fn viscous_number<T: Real>(g: &Grid<T>, rho_lo: T, mu_hi: T, dt: T) -> f64 {
+    let h = g.h();
+    let hmin = h[0].min(h[1]).min(h[2]);
+    (mu_hi / rho_lo * dt / (hmin * hmin)).f64()
 }
 
 fn validate_krylov(k: KrylovParams, name: &'static str) -> Result<()> {
