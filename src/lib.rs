@@ -45,6 +45,7 @@ pub mod interface;
 pub mod io;
 pub mod membrane;
 pub mod real;
+pub mod simulation;
 pub mod tensor;
 
 pub use error::{Error, Result};

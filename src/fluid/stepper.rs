@@ -296,6 +296,31 @@ impl<T: Real> FlowStepper<T> {
         forcing: &impl Forcing<T>,
         extra: Option<&dyn ImplicitTerm<T>>,
     ) -> Result<StepInfo> {
+        let info = self.prepare(dt, forcing, extra)?;
+        self.commit(dt);
+        Ok(info)
+    }
+
+    /// The new velocity computed by [`prepare`](Self::prepare), not yet committed.
+    pub(crate) fn proposed_velocity(&self) -> &VectorField<T> {
+        &self.ws.v_new
+    }
+
+    /// The materials, for in-place updates by a driver that owns the mixture (ghosts are filled
+    /// at the next step).
+    pub(crate) fn materials_mut(&mut self) -> &mut Materials<T> {
+        &mut self.materials
+    }
+
+    /// Computes the step into the workspace without touching the state: [`commit`](Self::commit)
+    /// makes it the new state, anything else discards it. The returned information is that of
+    /// the step once committed.
+    pub(crate) fn prepare(
+        &mut self,
+        dt: T,
+        forcing: &impl Forcing<T>,
+        extra: Option<&dyn ImplicitTerm<T>>,
+    ) -> Result<StepInfo> {
         crate::error::positive("dt", dt)?;
         let g = &self.grid;
         let inv_dt = T::one() / dt;
@@ -398,7 +423,23 @@ impl<T: Real> FlowStepper<T> {
             return Err(Error::NonFinite { field: ["velocity.u", "velocity.v", "velocity.w"][c], cell });
         }
 
-        // 6. Commit: nothing above touched the state.
+        // Nothing above touched the state.
+        Ok(StepInfo {
+            step: self.step + 1,
+            time: (self.time + dt).f64(),
+            dt: dt.f64(),
+            predictor_iterations: iters,
+            predictor_residual: resid,
+            poisson_iterations: pinfo.iterations,
+            cfl: cfl_of(g, &ws.v_new, dt),
+            viscous_number: viscous_number(g, rho_lo, mu_hi, dt),
+        })
+    }
+
+    /// Makes the step computed by the last successful [`prepare`](Self::prepare) the new state.
+    pub(crate) fn commit(&mut self, dt: T) {
+        let g = &self.grid;
+        let ws = &mut self.ws;
         std::mem::swap(&mut self.v, &mut ws.v_new);
         let psi = &ws.psi.data;
         par_interior_update(g, &mut self.p.data, |idx, _, _, _, p| p + psi[idx]);
@@ -407,35 +448,11 @@ impl<T: Real> FlowStepper<T> {
         self.has_history = true;
         self.time += dt;
         self.step += 1;
-        Ok(StepInfo {
-            step: self.step,
-            time: self.time.f64(),
-            dt: dt.f64(),
-            predictor_iterations: iters,
-            predictor_residual: resid,
-            poisson_iterations: pinfo.iterations,
-            cfl: self.cfl(dt),
-            viscous_number: viscous_number(g, rho_lo, mu_hi, dt),
-        })
     }
 
     /// `max_d max |v_d| dt / h_d` over interior faces.
     pub fn cfl(&self, dt: T) -> f64 {
-        let g = &self.grid;
-        let h = g.h();
-        (0..3)
-            .map(|d| {
-                let vmax = self.v.c[d]
-                    .data
-                    .par_chunks(g.dims()[0])
-                    .with_min_len(crate::grid::ops::min_rows(g.dims()[0]))
-                    .enumerate()
-                    .filter(|(row, _)| g.row_jk(*row).is_some())
-                    .map(|(_, line)| line.iter().fold(T::zero(), |m, &x| m.max(x.abs())))
-                    .reduce(T::zero, |a, b| a.max(b));
-                (vmax * dt / h[d]).f64()
-            })
-            .fold(0.0, f64::max)
+        cfl_of(&self.grid, &self.v, dt)
     }
 
     /// `max(mu / rho) dt / min(h)^2`.
@@ -443,6 +460,24 @@ impl<T: Real> FlowStepper<T> {
         let g = &self.grid;
         viscous_number(g, self.materials.rho.range(g).0, self.materials.mu.range(g).1, dt)
     }
+}
+
+/// `max_d max |v_d| dt / h_d` over the interior faces of `v`.
+fn cfl_of<T: Real>(g: &Grid<T>, v: &VectorField<T>, dt: T) -> f64 {
+    let h = g.h();
+    (0..3)
+        .map(|d| {
+            let vmax = v.c[d]
+                .data
+                .par_chunks(g.dims()[0])
+                .with_min_len(crate::grid::ops::min_rows(g.dims()[0]))
+                .enumerate()
+                .filter(|(row, _)| g.row_jk(*row).is_some())
+                .map(|(_, line)| line.iter().fold(T::zero(), |m, &x| m.max(x.abs())))
+                .reduce(T::zero, |a, b| a.max(b));
+            (vmax * dt / h[d]).f64()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// `mu_hi / rho_lo * dt / min(h)^2`.

@@ -47,13 +47,18 @@
 //!
 //! # Walls
 //!
-//! A band cell closer than [`GHOST`] cells to a wall is refused (the membrane stencils read up to
-//! three cells around the band, and ghost values across a wall are mirror images that a membrane
-//! cannot have): keep capsules at least `GHOST` cells plus the band half-width away from walls.
+//! A band cell closer than [`WALL_CLEARANCE`] cells to a wall is refused: the membrane stencils
+//! read up to three cells around the band, and ghost values across a wall are mirror images that
+//! a membrane cannot have. At two cells they read at most one mirrored layer, where `delta` has
+//! fallen below `ε/h` (the capsule of the paper's Sec. 3.2 at 32 cells per unit length sits
+//! there); keep capsules further away when you can.
 
 use crate::grid::{Field, GHOST, Grid};
 use crate::{Error, Real, Result};
 use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Least number of cells between a band cell and a wall (see the [module docs](self)).
+pub const WALL_CLEARANCE: usize = 2;
 
 /// Number of halo layers kept around the band (see the [module docs](self)).
 pub const MAX_HALO: usize = 4;
@@ -156,7 +161,8 @@ impl<T: Real> Band<T> {
     /// - [`Error::InvalidParameter`] naming `grid` or `delta` if they do not match the grid the
     ///   band was made for;
     /// - [`Error::NonFinite`] naming `delta` at the first interior cell holding NaN or infinity;
-    /// - [`Error::Unsupported`] if a band cell lies closer than [`GHOST`] cells to a wall.
+    /// - [`Error::Unsupported`] if a band cell lies closer than [`WALL_CLEARANCE`] cells to a
+    ///   wall.
     ///
     /// On error the band is left as it was.
     pub fn rebuild(&mut self, grid: &Grid<T>, delta: &Field<T>) -> Result<()> {
@@ -182,12 +188,14 @@ impl<T: Real> Band<T> {
                     if inside {
                         let c = [i, j, k];
                         if let Some(axis) =
-                            (0..3).find(|&a| !self.periodic[a] && (c[a] < GHOST || c[a] + GHOST >= self.n[a]))
+                            (0..3).find(|&a| {
+                                !self.periodic[a] && (c[a] < WALL_CLEARANCE || c[a] + WALL_CLEARANCE >= self.n[a])
+                            })
                         {
                             return Err(Error::Unsupported {
                                 component: "Band",
                                 detail: format!(
-                                    "band cell {c:?} (delta h >= {}) lies within {GHOST} cells of the \
+                                    "band cell {c:?} (delta h >= {}) lies within {WALL_CLEARANCE} cells of the \
                                      wall on axis {axis}; move the capsule away from the wall or enlarge \
                                      the domain",
                                     self.epsilon

@@ -51,7 +51,7 @@ use super::band::Band;
 use super::stress::stretching;
 use crate::error::positive;
 use crate::grid::ops::{grad_v_at_cell, par_interior_update};
-use crate::grid::{Field, Grid, SymField, VectorField};
+use crate::grid::{Field, GHOST, Grid, SymField, VectorField};
 use crate::tensor::{Sym, projector};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
@@ -191,6 +191,44 @@ impl<T: Real> StrainTransport<T> {
         self.has_history
     }
 
+    /// The AB2 history, for checkpoints: the storage indices of the cells with a stored
+    /// advective tendency and those tendencies (`None` before the first step).
+    pub fn history(&self) -> Option<(&[usize], &[Sym<T>])> {
+        self.has_history.then_some((self.prev_cells.as_slice(), self.prev_adv.as_slice()))
+    }
+
+    /// Restores a history saved from [`history`](Self::history) on the same grid.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `history` if the lengths differ, an index is not an
+    /// interior cell of the grid, or a tendency is not finite. The history is then left as it
+    /// was.
+    pub fn restore_history(&mut self, cells: &[usize], tendencies: &[Sym<T>]) -> Result<()> {
+        let g = &self.grid;
+        let interior = |idx: usize| {
+            let (row, i) = (idx / g.dims()[0], idx % g.dims()[0]);
+            idx < g.len() && g.row_jk(row).is_some() && (GHOST..GHOST + g.n()[0]).contains(&i)
+        };
+        if cells.len() != tendencies.len()
+            || !cells.iter().all(|&c| interior(c))
+            || !tendencies.iter().all(|t| t.iter().all(|x| x.is_finite()))
+        {
+            return Err(Error::invalid(
+                "history",
+                format!("{} cells, {} tendencies", cells.len(), tendencies.len()),
+                "interior cells of this grid with as many finite tendencies (from StrainTransport::history)",
+            ));
+        }
+        self.reset_history();
+        self.prev_cells.extend_from_slice(cells);
+        self.prev_adv.extend_from_slice(tendencies);
+        for (p, &idx) in cells.iter().enumerate() {
+            self.slot[idx] = p as u32;
+        }
+        self.has_history = true;
+        Ok(())
+    }
+
     /// Advances `gs` from `Gⁿ` to `G^{n+1}` by (2.40) and applies the re-set near the band.
     ///
     /// Inputs: `band` of step `n+1`; `dt`; `v_old = vⁿ` and `v_new = v^{n+1}` (staggered, ghosts
@@ -214,6 +252,28 @@ impl<T: Real> StrainTransport<T> {
         normal: &[Field<T>; 3],
         gs: &mut SymField<T>,
     ) -> Result<()> {
+        if gs.c.iter().all(|f| f.data.len() == grid.len()) {
+            gs.fill_ghosts(grid);
+        }
+        self.prepare(grid, band, dt, v_old, v_new, normal, gs)?;
+        self.commit(band, normal, gs);
+        Ok(())
+    }
+
+    /// Computes `G^{n+1}` on the band into a work array, without touching `gs` (ghosts filled)
+    /// or the history: [`commit`](Self::commit) writes it. Same inputs and errors as
+    /// [`step`](Self::step).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn prepare(
+        &mut self,
+        grid: &Grid<T>,
+        band: &Band<T>,
+        dt: T,
+        v_old: &VectorField<T>,
+        v_new: &VectorField<T>,
+        normal: &[Field<T>; 3],
+        gs: &SymField<T>,
+    ) -> Result<()> {
         if grid != &self.grid {
             return Err(Error::invalid(
                 "grid",
@@ -233,7 +293,6 @@ impl<T: Real> StrainTransport<T> {
         if let Some((name, _)) = sizes.iter().find(|(_, ok)| !ok) {
             return Err(Error::invalid(name, "a field of another grid", "a field of the band's grid"));
         }
-        gs.fill_ghosts(grid);
         let gs_ro: &SymField<T> = gs;
 
         // 1. A(vⁿ, Gⁿ) on halo(1).
@@ -278,7 +337,14 @@ impl<T: Real> StrainTransport<T> {
             });
         }
 
-        // 3. Commit: band values, re-set around the band, history.
+        Ok(())
+    }
+
+    /// Writes the values computed by the last successful [`prepare`](Self::prepare) (same band,
+    /// normal and `gs`): band values, re-set around the band, history.
+    pub(crate) fn commit(&mut self, band: &Band<T>, normal: &[Field<T>; 3], gs: &mut SymField<T>) {
+        let nb = band.len();
+        let cells1 = band.halo(1);
         for (&idx, g) in band.cells().iter().zip(&self.new_g) {
             gs.set(idx, g);
         }
@@ -295,6 +361,5 @@ impl<T: Real> StrainTransport<T> {
         }
         std::mem::swap(&mut self.prev_adv, &mut self.adv);
         self.has_history = true;
-        Ok(())
     }
 }

@@ -1,0 +1,175 @@
+//! The state of one capsule: its own `phi`, `kappa_R tilde` (bending only), `G_s` (elasticity
+//! only), the geometry derived from `phi` and the membrane band, double-buffered so that a step
+//! is computed beside the state and committed only when every part of it succeeded.
+
+use super::scene::SharedLaw;
+use crate::grid::{Field, Grid, SymField, VectorField};
+use crate::interface::geometry::{Band as PhiBand, delta_in_band};
+use crate::interface::shapes::{Shape, Smoothing, smoothed_fields, smoothed_phi};
+use crate::interface::{AdvectionParams, Advector, Geometry, NormalScheme};
+use crate::membrane::{Band, Bending, InPlaneElasticity, StrainTransport, fill_projector};
+use crate::{Real, Result};
+
+/// What is derived from `phi` at one time level.
+#[derive(Debug, Clone)]
+pub(crate) struct Level<T> {
+    pub(crate) phi: Field<T>,
+    /// `kappa_R tilde` (only with bending).
+    pub(crate) kappa: Option<Field<T>>,
+    /// `delta = |grad phi|` (2.26) where `phi` is not saturated.
+    pub(crate) delta: Field<T>,
+    /// Unit normal at cell centres (ghosts filled), where `phi` is not saturated.
+    pub(crate) normal: [Field<T>; 3],
+    /// The membrane band `delta h >= epsilon`.
+    pub(crate) band: Band<T>,
+}
+
+/// One capsule of a [`Simulation`](super::Simulation).
+pub(crate) struct Capsule<T: Real> {
+    /// Time level `n` (the state).
+    pub(crate) cur: Level<T>,
+    /// Time level `n + 1` under construction.
+    pub(crate) next: Level<T>,
+    /// `G_s^n` (only with elasticity).
+    pub(crate) gs: Option<SymField<T>>,
+    pub(crate) advector: Advector<T>,
+    pub(crate) geometry: Geometry<T>,
+    pub(crate) elastic: Option<InPlaneElasticity<T, SharedLaw<T>>>,
+    pub(crate) strain: Option<StrainTransport<T>>,
+    pub(crate) bending: Option<Bending<T>>,
+    /// Saved AB2 history of the advector (restored when a step fails).
+    saved: (Option<T>, Vec<T>, Vec<T>),
+}
+
+/// `phi` range where the geometry (normals, `delta`) is evaluated: wide enough for the
+/// membrane band and the four halo layers around it.
+pub(crate) fn geometry_band<T: Real>() -> PhiBand<T> {
+    let tiny = T::lit(1e-10).max(T::epsilon() * T::lit(4.0));
+    PhiBand { lower: tiny, upper: T::one() - tiny }
+}
+
+impl<T: Real> Level<T> {
+    fn zeros(grid: &Grid<T>, bending: bool, epsilon: T) -> Result<Self> {
+        Ok(Level {
+            phi: Field::zeros(grid),
+            kappa: bending.then(|| Field::zeros(grid)),
+            delta: Field::zeros(grid),
+            normal: std::array::from_fn(|_| Field::zeros(grid)),
+            band: Band::new(grid, epsilon)?,
+        })
+    }
+
+    /// Recomputes `delta`, the normals and the band from `phi` (ghosts of `phi` filled here).
+    pub(crate) fn derive(&mut self, grid: &Grid<T>, geometry: &mut Geometry<T>) -> Result<()> {
+        self.phi.fill_ghosts(grid);
+        geometry.update(grid, &self.phi);
+        let band = geometry_band();
+        geometry.normals(grid, &self.phi, band, &mut self.normal);
+        for c in self.normal.iter_mut() {
+            c.fill_ghosts(grid);
+        }
+        delta_in_band(grid, &self.phi, band, &mut self.delta);
+        self.delta.fill_ghosts(grid);
+        self.band.rebuild(grid, &self.delta)
+    }
+
+    fn copy_from(&mut self, other: &Level<T>) {
+        self.phi.data.copy_from_slice(&other.phi.data);
+        if let (Some(a), Some(b)) = (self.kappa.as_mut(), other.kappa.as_ref()) {
+            a.data.copy_from_slice(&b.data);
+        }
+    }
+}
+
+impl<T: Real> Capsule<T> {
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn new(
+        grid: &Grid<T>,
+        shape: &dyn Shape,
+        smoothing: &Smoothing,
+        advection: AdvectionParams<T>,
+        normals: NormalScheme,
+        epsilon: T,
+        law: Option<&SharedLaw<T>>,
+        eb: Option<T>,
+    ) -> Result<Self> {
+        let bending = eb.is_some();
+        let mut cur = Level::zeros(grid, bending, epsilon)?;
+        if bending {
+            let (phi, kappa) = smoothed_fields(grid, shape, smoothing)?;
+            cur.phi = phi;
+            cur.kappa = Some(kappa);
+        } else {
+            cur.phi = smoothed_phi(grid, shape, smoothing)?;
+        }
+        let mut geometry = Geometry::new(grid, normals);
+        cur.derive(grid, &mut geometry)?;
+        let next = Level::zeros(grid, bending, epsilon)?;
+        let gs = law.map(|_| {
+            // The reference state: G_s = P (2.22) everywhere the normal is defined.
+            let mut gs = SymField::zeros(grid);
+            fill_projector(grid, &cur.normal, &mut gs);
+            gs
+        });
+        Ok(Capsule {
+            cur,
+            next,
+            gs,
+            advector: Advector::new(grid, advection, bending)?,
+            geometry,
+            elastic: law.map(|l| InPlaneElasticity::new(grid, l.clone())),
+            strain: match law {
+                Some(_) => Some(StrainTransport::new(grid)?),
+                None => None,
+            },
+            bending: match eb {
+                Some(eb) => Some(Bending::new(grid, eb)?),
+                None => None,
+            },
+            saved: (None, Vec::new(), Vec::new()),
+        })
+    }
+
+    /// Steps 1-3 of the time step for this capsule: advects `phi` (and `kappa_R tilde`) with
+    /// `v^n` into the next level, derives its geometry and band, and evaluates the membrane
+    /// stress and bending force there (`G_s^n`, `n^{n+1}`, `delta^{n+1}`). The state is not
+    /// touched; on error call [`discard`](Self::discard).
+    pub(crate) fn prepare(&mut self, grid: &Grid<T>, v: &VectorField<T>, dt: T) -> Result<usize> {
+        self.saved.0 = None;
+        if let Some((dt_prev, rp, rk)) = self.advector.history() {
+            self.saved.0 = Some(dt_prev);
+            self.saved.1.clear();
+            self.saved.1.extend_from_slice(rp);
+            self.saved.2.clear();
+            self.saved.2.extend_from_slice(rk);
+        }
+        self.next.copy_from(&self.cur);
+        let info = self.advector.step(grid, v, dt, &mut self.next.phi, self.next.kappa.as_mut())?;
+        self.next.derive(grid, &mut self.geometry)?;
+        let next = &self.next;
+        if let (Some(e), Some(gs)) = (self.elastic.as_mut(), self.gs.as_ref()) {
+            e.evaluate(grid, &next.band, gs, &next.normal, &next.delta, dt)?;
+        }
+        if let (Some(b), Some(kappa)) = (self.bending.as_mut(), next.kappa.as_ref()) {
+            b.evaluate(grid, &next.band, &next.normal, &next.delta, kappa)?;
+        }
+        Ok(info.profile_cells)
+    }
+
+    /// Undoes what [`prepare`](Self::prepare) changed outside the next level: the advector's
+    /// history.
+    pub(crate) fn discard(&mut self) {
+        match self.saved.0 {
+            Some(dt_prev) => {
+                // Same grid and same lengths: cannot fail.
+                let _ = self.advector.restore_history(dt_prev, &self.saved.1, &self.saved.2);
+            }
+            None => self.advector.reset_history(),
+        }
+    }
+
+    /// Makes the next level the state (after the `G_s` commit).
+    pub(crate) fn commit(&mut self) {
+        std::mem::swap(&mut self.cur, &mut self.next);
+    }
+}

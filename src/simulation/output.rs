@@ -1,0 +1,164 @@
+//! Output of a [`Simulation`]: ParaView snapshots (`.vti`) and checkpoints of the whole state.
+
+use super::Simulation;
+use crate::Real;
+use crate::grid::{Field, SymField};
+use crate::io::checkpoint::{CheckpointReader, CheckpointWriter};
+use crate::io::vtk::VtiWriter;
+use crate::membrane::stress::tension_invariants;
+use crate::{Error, Result};
+use std::path::Path;
+
+impl<T: Real> Simulation<T> {
+    /// Writes a ParaView snapshot (VTK XML image data, raw appended binary): `phi` (all
+    /// capsules together, and per capsule when there are several), the velocity at cell centres,
+    /// the pressure, `delta`, and with elasticity the principal tensions `t1`, `t2` and the area
+    /// dilation `j_s` on the membrane bands. Pair it with a
+    /// [`PvdSeries`](crate::io::PvdSeries) for a time series.
+    pub fn write_vti(&self, path: impl AsRef<Path>) -> Result<()> {
+        let g = &self.grid;
+        let mut w = VtiWriter::new(g);
+        let caps = &self.capsules;
+        let total = |f: fn(&super::capsule::Level<T>, usize) -> T| {
+            move |i: usize, j: usize, k: usize| {
+                let idx = g.idx_u(i, j, k);
+                caps.iter().map(|c| f(&c.cur, idx).f64()).sum::<f64>()
+            }
+        };
+        w.scalar_fn("phi", total(|l, idx| l.phi.data[idx]));
+        if self.capsules.len() > 1 {
+            for (c, cap) in self.capsules.iter().enumerate() {
+                w.scalar(&format!("phi_{c}"), &cap.cur.phi);
+            }
+        }
+        w.vector("velocity", self.flow.velocity()).scalar("pressure", self.flow.pressure());
+        w.scalar_fn("delta", total(|l, idx| l.delta.data[idx]));
+        if let Some(law) = &self.law {
+            let inv = |idx: usize| {
+                self.capsules.iter().find_map(|cap| {
+                    let (gs, l) = (cap.gs.as_ref()?, &cap.cur);
+                    l.band.contains(idx).then(|| {
+                        let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
+                        tension_invariants(law, &gs.get(idx), &n)
+                    })
+                })
+            };
+            let at = |f: fn(&crate::membrane::stress::TensionInvariants<T>) -> T| {
+                move |i: usize, j: usize, k: usize| inv(g.idx_u(i, j, k)).map_or(0.0, |t| f(&t).f64())
+            };
+            w.scalar_fn("t1", at(|t| t.t1)).scalar_fn("t2", at(|t| t.t2)).scalar_fn("j_s", at(|t| t.dilation));
+        }
+        w.write(path)
+    }
+
+    /// Writes the whole state (flow with its time history, every capsule's `phi`,
+    /// `kappa_R tilde`, `G_s` and AB2 histories) atomically to `path`. A simulation restored
+    /// from it by [`restore`](Self::restore) continues bit for bit like the uninterrupted one.
+    pub fn checkpoint(&self, path: impl AsRef<Path>) -> Result<()> {
+        let mut w = CheckpointWriter::new();
+        self.flow.checkpoint(&mut w, "flow.");
+        w.number("capsules", self.capsules.len() as f64);
+        for (c, cap) in self.capsules.iter().enumerate() {
+            let p = format!("capsule{c}.");
+            w.array(&format!("{p}phi"), &cap.cur.phi.data);
+            if let Some(k) = &cap.cur.kappa {
+                w.array(&format!("{p}kappa"), &k.data);
+            }
+            if let Some(gs) = &cap.gs {
+                for (k, f) in gs.c.iter().enumerate() {
+                    w.array(&format!("{p}gs{k}"), &f.data);
+                }
+            }
+            if let Some((dt_prev, rp, rk)) = cap.advector.history() {
+                w.number(&format!("{p}adv_dt_prev"), dt_prev.f64());
+                w.array(&format!("{p}adv_rhs_phi"), rp).array(&format!("{p}adv_rhs_kappa"), rk);
+            }
+            if let Some((cells, tend)) = cap.strain.as_ref().and_then(|s| s.history()) {
+                let cells: Vec<f64> = cells.iter().map(|&i| i as f64).collect();
+                let flat: Vec<T> = tend.iter().flat_map(|t| t.iter().copied()).collect();
+                w.number(&format!("{p}strain_count"), cells.len() as f64);
+                w.array(&format!("{p}strain_cells"), &cells).array(&format!("{p}strain_tendencies"), &flat);
+            }
+        }
+        w.save(path)
+    }
+
+    /// Restores a state written by [`checkpoint`](Self::checkpoint) into a simulation built
+    /// from the same scene. The state is replaced only if everything could be read.
+    ///
+    /// # Errors
+    /// [`Error::Io`] for an unreadable or malformed file; [`Error::InvalidParameter`] for a
+    /// checkpoint of another grid or scene.
+    pub fn restore(&mut self, path: impl AsRef<Path>) -> Result<()> {
+        let r = CheckpointReader::open(path)?;
+        let count = r.number("capsules")?;
+        if count != self.capsules.len() as f64 {
+            return Err(Error::invalid("checkpoint capsules", count, "the capsule count of this scene"));
+        }
+        let g = &self.grid;
+        let len = g.len();
+        let field = |name: &str| -> Result<Field<T>> { Ok(Field { data: r.array(name, len)? }) };
+        // Read everything first.
+        let mut read = Vec::with_capacity(self.capsules.len());
+        for (c, cap) in self.capsules.iter().enumerate() {
+            let p = format!("capsule{c}.");
+            let phi = field(&format!("{p}phi"))?;
+            let kappa = match &cap.cur.kappa {
+                Some(_) => Some(field(&format!("{p}kappa"))?),
+                None => None,
+            };
+            let gs = match &cap.gs {
+                Some(_) => {
+                    let mut s = SymField::zeros(g);
+                    for (k, f) in s.c.iter_mut().enumerate() {
+                        *f = field(&format!("{p}gs{k}"))?;
+                    }
+                    Some(s)
+                }
+                None => None,
+            };
+            let adv = if r.has(&format!("{p}adv_dt_prev")) {
+                let (n, nk) = (len, if cap.cur.kappa.is_some() { len } else { 0 });
+                Some((
+                    T::lit(r.number(&format!("{p}adv_dt_prev"))?),
+                    r.array::<T>(&format!("{p}adv_rhs_phi"), n)?,
+                    r.array::<T>(&format!("{p}adv_rhs_kappa"), nk)?,
+                ))
+            } else {
+                None
+            };
+            let strain = if r.has(&format!("{p}strain_count")) {
+                let count = r.number(&format!("{p}strain_count"))? as usize;
+                let cells: Vec<f64> = r.array(&format!("{p}strain_cells"), count)?;
+                let flat: Vec<T> = r.array(&format!("{p}strain_tendencies"), 6 * count)?;
+                let tend: Vec<[T; 6]> = flat.chunks_exact(6).map(|c| std::array::from_fn(|k| c[k])).collect();
+                Some((cells.iter().map(|&x| x as usize).collect::<Vec<usize>>(), tend))
+            } else {
+                None
+            };
+            read.push((phi, kappa, gs, adv, strain));
+        }
+        // Then replace: the flow first (it validates the grid), then the capsules.
+        self.flow.restore(&r, "flow.")?;
+        for (cap, (phi, kappa, gs, adv, strain)) in self.capsules.iter_mut().zip(read) {
+            cap.cur.phi = phi;
+            cap.cur.kappa = kappa;
+            cap.gs = gs;
+            cap.cur.derive(g, &mut cap.geometry)?;
+            match adv {
+                Some((dt_prev, rp, rk)) => cap.advector.restore_history(dt_prev, &rp, &rk)?,
+                None => cap.advector.reset_history(),
+            }
+            if let Some(s) = cap.strain.as_mut() {
+                match strain {
+                    Some((cells, tend)) => s.restore_history(&cells, &tend)?,
+                    None => s.reset_history(),
+                }
+            }
+        }
+        if let Some(v) = self.v_old.as_mut() {
+            v.copy_from(self.flow.velocity());
+        }
+        Ok(())
+    }
+}
