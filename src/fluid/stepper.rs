@@ -354,6 +354,9 @@ impl<T: Real> FlowStepper<T> {
                 ws.force.c[c].fill(T::zero());
             }
             forcing.add(g, self.time, &self.v, &mut ws.force);
+            if let Some((c, cell)) = ws.force.first_non_finite(g) {
+                return Err(Error::NonFinite { field: ["force.u", "force.v", "force.w"][c], cell });
+            }
         }
 
         // 3. Right-hand side of (2.35); the explicit viscous half first (fast path when mu is

@@ -187,11 +187,9 @@ impl<T: Real> Band<T> {
                     let inside = d >= threshold;
                     if inside {
                         let c = [i, j, k];
-                        if let Some(axis) =
-                            (0..3).find(|&a| {
-                                !self.periodic[a] && (c[a] < WALL_CLEARANCE || c[a] + WALL_CLEARANCE >= self.n[a])
-                            })
-                        {
+                        if let Some(axis) = (0..3).find(|&a| {
+                            !self.periodic[a] && (c[a] < WALL_CLEARANCE || c[a] + WALL_CLEARANCE >= self.n[a])
+                        }) {
                             return Err(Error::Unsupported {
                                 component: "Band",
                                 detail: format!(
@@ -599,7 +597,7 @@ mod tests {
         d.data[gw.idx_u(4, 5, 4)] = 100.0;
         bw.rebuild(&gw, &d).unwrap();
         assert_eq!(bw.len(), 1);
-        d.data[gw.idx_u(4, 2, 4)] = 100.0;
+        d.data[gw.idx_u(4, 1, 4)] = 100.0;
         assert!(matches!(bw.rebuild(&gw, &d), Err(Error::Unsupported { .. })));
         assert_eq!(bw.len(), 1, "a failed rebuild leaves the band as it was");
     }

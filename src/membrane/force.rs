@@ -296,7 +296,18 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
     /// failed).
     pub fn forcing<'a>(&'a self, band: &'a Band<T>) -> Result<InPlaneForcing<'a, T, L>> {
         self.check_band(band)?;
-        Ok(InPlaneForcing { e: self, band })
+        Ok(InPlaneForcing { e: self, band, quasi_implicit: true })
+    }
+
+    /// The fully explicit in-plane force `∇·(δ τⁿ)`, without the linearised `H` terms of
+    /// (2.35): the reference against which the quasi-implicit scheme's larger stable time step
+    /// is measured. Use it without [`implicit`](Self::implicit).
+    ///
+    /// # Errors
+    /// As [`forcing`](Self::forcing).
+    pub fn explicit_forcing<'a>(&'a self, band: &'a Band<T>) -> Result<InPlaneForcing<'a, T, L>> {
+        self.check_band(band)?;
+        Ok(InPlaneForcing { e: self, band, quasi_implicit: false })
     }
 
     /// The implicit term `−(Δt/4) ∇·(δ H(v*, G_sⁿ, Jⁿ))` of the predictor (2.35), as an
@@ -355,18 +366,20 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
 pub struct InPlaneForcing<'a, T: Real, L: SurfaceLaw<T>> {
     e: &'a InPlaneElasticity<T, L>,
     band: &'a Band<T>,
+    quasi_implicit: bool,
 }
 
 impl<T: Real, L: SurfaceLaw<T>> Forcing<T> for InPlaneForcing<'_, T, L> {
     fn is_active(&self) -> bool {
         !self.band.is_empty()
     }
-    /// Adds `∇·(δ (τⁿ + (Δt/4) H(v, G_sⁿ, Jⁿ)))` on the faces of `halo(1)`.
+    /// Adds `∇·(δ (τⁿ + (Δt/4) H(v, G_sⁿ, Jⁿ)))` on the faces of `halo(1)` (only `∇·(δ τⁿ)`
+    /// for the [explicit](InPlaneElasticity::explicit_forcing) force).
     ///
     /// # Panics
     /// If `v` or `out` are not fields of the elasticity's grid (the trait cannot return errors).
     fn add(&self, _grid: &Grid<T>, _time: T, v: &VectorField<T>, out: &mut VectorField<T>) {
-        let q = T::lit(0.25) * self.e.dt;
+        let q = if self.quasi_implicit { T::lit(0.25) * self.e.dt } else { T::zero() };
         self.e.add_force(self.band, v, T::one(), q, out);
     }
 }

@@ -3,10 +3,10 @@
 
 use super::capsule::Level;
 use super::scene::{SharedLaw, SurfaceForceFn};
+use crate::Real;
 use crate::fluid::{Forcing, ImplicitTerm};
 use crate::grid::{Grid, VectorField};
 use crate::membrane::InPlaneImplicit;
-use crate::Real;
 
 /// The sum of several explicit forcings.
 pub(crate) struct SumForcing<'a, T: Real>(pub(crate) Vec<&'a dyn Forcing<T>>);

@@ -35,9 +35,11 @@ mod forces;
 mod output;
 mod scene;
 
-pub use scene::{Phase, Scene, Settings, SharedLaw, SurfaceForceFn};
+pub use scene::{MembraneCoupling, Phase, Scene, Settings, SharedLaw, SurfaceForceFn};
 
-use crate::diagnostics::{DissipationForm, EnergyState, body_force_power, kinetic_energy, viscous_dissipation};
+use crate::diagnostics::{
+    DissipationForm, EnergyState, body_force_power, kinetic_energy, viscous_dissipation,
+};
 use crate::error::positive;
 use crate::fluid::{BodyForce, Coefficient, Forcing, ImplicitTerm, Materials};
 use crate::grid::{Field, Grid, SymField, VectorField};
@@ -132,7 +134,13 @@ impl<T: Real> Simulation<T> {
         let mut m = Materials::uniform(b.rho, b.mu)?;
         if !self.capsules.is_empty() {
             let mix = |x: T, y: T| {
-                if x == y { Coefficient::Uniform(x) } else { Coefficient::Field(Field::zeros(&self.grid)) }
+                if x == y {
+                    Coefficient::Uniform(x)
+                } else {
+                    let mut f = Field::zeros(&self.grid);
+                    f.fill(y);
+                    Coefficient::Field(f)
+                }
             };
             m = Materials { rho: mix(a.rho, b.rho), mu: mix(a.mu, b.mu) };
         }
@@ -157,6 +165,7 @@ impl<T: Real> Simulation<T> {
                         .min(T::one());
                     *out = w * xa + (T::one() - w) * xb;
                 });
+                f.fill_ghosts(&self.grid);
             }
         }
     }
@@ -194,8 +203,12 @@ impl<T: Real> Simulation<T> {
             let mut bending = Vec::new();
             for cap in caps {
                 if let Some(e) = &cap.elastic {
-                    elastic.push(e.forcing(&cap.next.band)?);
-                    implicit.push(e.implicit(&cap.next.band)?);
+                    if self.settings.coupling == MembraneCoupling::Explicit {
+                        elastic.push(e.explicit_forcing(&cap.next.band)?);
+                    } else {
+                        elastic.push(e.forcing(&cap.next.band)?);
+                        implicit.push(e.implicit(&cap.next.band)?);
+                    }
                 }
                 if let Some(b) = &cap.bending {
                     bending.push(b.forcing(&cap.next.band)?);
@@ -343,6 +356,36 @@ impl<T: Real> Simulation<T> {
         Ok(self.capsule(c)?.gs.as_ref())
     }
 
+    /// Pre-stretches the membrane of capsule `c` isotropically by `lambda` (current over
+    /// reference length): `G_s = lambda^2 P` with the current normals, so that the capsule's
+    /// reference state is smaller than its shape (`lambda > 1`, an inflated capsule) or larger.
+    ///
+    /// # Errors
+    /// `lambda` not finite and `> 0`; a scene without elasticity; an unknown capsule.
+    pub fn prestretch(&mut self, c: usize, lambda: T) -> Result<()> {
+        positive("lambda", lambda)?;
+        self.capsule(c)?;
+        let grid = &self.grid;
+        let cap = &mut self.capsules[c];
+        let Some(gs) = cap.gs.as_mut() else {
+            return Err(Error::invalid(
+                "prestretch",
+                "a scene without elasticity",
+                "a scene with Scene::elasticity",
+            ));
+        };
+        crate::membrane::fill_projector(grid, &cap.cur.normal, gs);
+        let l2 = lambda * lambda;
+        for f in gs.c.iter_mut() {
+            f.data.iter_mut().for_each(|x| *x *= l2);
+        }
+        gs.fill_ghosts(grid);
+        if let Some(s) = cap.strain.as_mut() {
+            s.reset_history();
+        }
+        Ok(())
+    }
+
     /// Volume `sum phi h^3` of capsule `c`.
     pub fn volume(&self, c: usize) -> Result<f64> {
         crate::diagnostics::volume(&self.grid, self.phi(c)?)
@@ -414,7 +457,9 @@ fn check_wall_distance<T: Real>(grid: &Grid<T>, phi: &Field<T>, beta: f64, c: us
         if let Some(cell) = near {
             return Err(Error::invalid(
                 "capsule",
-                format!("capsule {c}: inside at cell {cell:?}, within {min_cells} cells of a wall on axis {d}"),
+                format!(
+                    "capsule {c}: inside at cell {cell:?}, within {min_cells} cells of a wall on axis {d}"
+                ),
                 "a capsule whose surface stays two profile widths (4 h / beta) from every wall",
             ));
         }

@@ -46,7 +46,9 @@ impl<T: Real> Simulation<T> {
             let at = |f: fn(&crate::membrane::stress::TensionInvariants<T>) -> T| {
                 move |i: usize, j: usize, k: usize| inv(g.idx_u(i, j, k)).map_or(0.0, |t| f(&t).f64())
             };
-            w.scalar_fn("t1", at(|t| t.t1)).scalar_fn("t2", at(|t| t.t2)).scalar_fn("j_s", at(|t| t.dilation));
+            w.scalar_fn("t1", at(|t| t.t1))
+                .scalar_fn("t2", at(|t| t.t2))
+                .scalar_fn("j_s", at(|t| t.dilation));
         }
         w.write(path)
     }

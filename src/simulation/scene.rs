@@ -78,6 +78,21 @@ pub struct Settings<T> {
     pub epsilon: T,
     /// Cell averaging of the initial shapes.
     pub smoothing: Smoothing,
+    /// How the in-plane membrane stress enters the predictor. Default
+    /// [`MembraneCoupling::QuasiImplicit`] (2.32)-(2.35).
+    pub coupling: MembraneCoupling,
+}
+
+/// How the in-plane membrane stress enters the momentum predictor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MembraneCoupling {
+    /// The paper's quasi-implicit stress (2.32)-(2.35): `τ* ≈ τⁿ + J' : ΔG_s` linearised in `v*`
+    /// and solved with the predictor. Allows several times larger steps.
+    #[default]
+    QuasiImplicit,
+    /// The explicit stress `τⁿ` only: cheaper per step, but stable only for small `Δt`. Kept as
+    /// the reference for stability studies.
+    Explicit,
 }
 
 impl<T: Real> Default for Settings<T> {
@@ -88,6 +103,7 @@ impl<T: Real> Default for Settings<T> {
             normals: NormalScheme::Atanh4,
             epsilon: T::lit(0.01),
             smoothing: Smoothing::default(),
+            coupling: MembraneCoupling::default(),
         }
     }
 }

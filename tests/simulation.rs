@@ -1,0 +1,251 @@
+//! The coupled simulation: what a scene allocates, rollback of failed steps, bit-for-bit
+//! restart, refused scenes, and small physical checks.
+
+use eulermembrane::Error;
+use eulermembrane::grid::{Boundary, Grid};
+use eulermembrane::interface::shapes::{Circle, Sphere};
+use eulermembrane::membrane::{NeoHookean, Skalak};
+use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+fn box16() -> Grid<f64> {
+    Grid::periodic([16; 3], [0.0; 3], [1.0; 3]).unwrap()
+}
+
+fn fluid() -> Phase<f64> {
+    Phase::new(1.0, 1.0).unwrap()
+}
+
+/// A shear-like initial velocity that deforms the capsule.
+fn stir(sim: &mut Simulation<f64>) {
+    sim.set_velocity(|x| {
+        let tau = 2.0 * std::f64::consts::PI;
+        [0.2 * (tau * x[1]).sin(), 0.1 * (tau * x[2]).sin(), 0.1 * (tau * x[0]).cos()]
+    })
+    .unwrap();
+}
+
+fn full_scene(poison: Option<Arc<AtomicBool>>) -> Simulation<f64> {
+    let mut sim = Scene::new(box16(), fluid())
+        .inside(Phase::new(1.0, 3.0).unwrap())
+        .capsule(Sphere::new([0.5, 0.5, 0.5], 0.25).unwrap())
+        .elasticity(Skalak::new(1.0, 2.0).unwrap())
+        .bending(1e-3)
+        .surface_force(move |x, _| {
+            let bad = poison.as_ref().is_some_and(|p| p.load(Ordering::Relaxed));
+            if bad { [f64::NAN; 3] } else { [0.0, 0.0, -(x[2] - 0.5).signum()] }
+        })
+        .build()
+        .unwrap();
+    stir(&mut sim);
+    sim
+}
+
+fn same_state(a: &Simulation<f64>, b: &Simulation<f64>) -> bool {
+    let eq = |x: &[f64], y: &[f64]| x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
+    let g = a.grid();
+    let interior = |f: &eulermembrane::grid::Field<f64>| -> Vec<f64> {
+        g.cells().map(|(i, j, k)| f.data[g.idx_u(i, j, k)]).collect()
+    };
+    a.time() == b.time()
+        && a.steps() == b.steps()
+        && (0..3).all(|d| eq(&interior(&a.velocity().c[d]), &interior(&b.velocity().c[d])))
+        && eq(&interior(a.pressure()), &interior(b.pressure()))
+        && eq(&interior(a.phi(0).unwrap()), &interior(b.phi(0).unwrap()))
+        && eq(
+            &interior(a.kappa_r_tilde(0).unwrap().unwrap()),
+            &interior(b.kappa_r_tilde(0).unwrap().unwrap()),
+        )
+        && {
+            let (ga, gb) = (a.gs(0).unwrap().unwrap(), b.gs(0).unwrap().unwrap());
+            a.band(0)
+                .unwrap()
+                .cells()
+                .iter()
+                .all(|&idx| (0..6).all(|c| ga.c[c].data[idx].to_bits() == gb.c[c].data[idx].to_bits()))
+        }
+}
+
+#[test]
+fn a_scene_allocates_only_its_effects() {
+    let sphere = || Sphere::new([0.5; 3], 0.25).unwrap();
+    let plain = Scene::new(box16(), fluid()).capsule(sphere()).build().unwrap();
+    assert!(!plain.has_elasticity() && !plain.has_bending());
+    assert!(plain.gs(0).unwrap().is_none());
+    assert!(plain.kappa_r_tilde(0).unwrap().is_none());
+
+    let elastic = Scene::new(box16(), fluid()).capsule(sphere()).elasticity(NeoHookean::new(1.0).unwrap());
+    let elastic = elastic.build().unwrap();
+    assert!(elastic.gs(0).unwrap().is_some());
+    assert!(elastic.kappa_r_tilde(0).unwrap().is_none(), "no kappa_R tilde without bending");
+
+    let bending = Scene::new(box16(), fluid()).capsule(sphere()).bending(1e-3).build().unwrap();
+    assert!(bending.kappa_r_tilde(0).unwrap().is_some());
+    assert!(bending.gs(0).unwrap().is_none());
+
+    // Equal properties inside and outside: constant coefficients (no material fields).
+    let m = elastic.flow().materials();
+    assert!(m.rho.is_uniform() && m.mu.is_uniform());
+    let contrast =
+        Scene::new(box16(), fluid()).inside(Phase::new(1.0, 5.0).unwrap()).capsule(sphere()).build().unwrap();
+    assert!(contrast.flow().materials().rho.is_uniform());
+    assert!(!contrast.flow().materials().mu.is_uniform());
+}
+
+#[test]
+fn a_failed_step_leaves_the_state_as_it_was() {
+    let poison = Arc::new(AtomicBool::new(false));
+    let mut a = full_scene(Some(poison.clone()));
+    let mut b = full_scene(None);
+    for _ in 0..3 {
+        a.step(2e-3).unwrap();
+        b.step(2e-3).unwrap();
+    }
+    assert!(same_state(&a, &b));
+    poison.store(true, Ordering::Relaxed);
+    let err = a.step(2e-3).unwrap_err();
+    assert!(matches!(err, Error::NonFinite { .. }), "{err}");
+    assert!(same_state(&a, &b), "the failed step changed the state");
+    poison.store(false, Ordering::Relaxed);
+    for _ in 0..2 {
+        a.step(2e-3).unwrap();
+        b.step(2e-3).unwrap();
+    }
+    assert!(same_state(&a, &b), "the step after a failed one differs from the uninterrupted run");
+}
+
+#[test]
+fn a_restarted_run_is_bit_for_bit_identical() {
+    let dir = std::env::temp_dir().join(format!("em_sim_ckpt_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("state.ckpt");
+    let mut a = full_scene(None);
+    for _ in 0..6 {
+        a.step(2e-3).unwrap();
+    }
+    let mut b = full_scene(None);
+    for _ in 0..3 {
+        b.step(2e-3).unwrap();
+    }
+    b.checkpoint(&path).unwrap();
+    let mut c = full_scene(None);
+    c.restore(&path).unwrap();
+    assert!(same_state(&b, &c), "restored state differs");
+    for _ in 0..3 {
+        c.step(2e-3).unwrap();
+    }
+    assert!(same_state(&a, &c), "restarted run differs from the uninterrupted one");
+    let vti = dir.join("snap.vti");
+    c.write_vti(&vti).unwrap();
+    let text = std::fs::read(&vti).unwrap();
+    let head = String::from_utf8_lossy(&text[..text.len().min(4000)]).to_string();
+    for name in ["phi", "velocity", "pressure", "delta", "t1", "t2", "j_s"] {
+        assert!(head.contains(&format!("Name=\"{name}\"")), "{name} missing from the snapshot");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_scenes_are_refused() {
+    let sphere = || Sphere::new([0.5; 3], 0.25).unwrap();
+    // Membrane effects without capsules.
+    let e = Scene::new(box16(), fluid()).elasticity(NeoHookean::new(1.0).unwrap()).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "elasticity", .. })));
+    let e = Scene::new(box16(), fluid()).bending(1e-3).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "bending", .. })));
+    // Non-positive bending modulus.
+    let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(-1.0).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "eb", .. })));
+    // epsilon outside (0, 1).
+    for eps in [0.0, 1.0, -0.1, f64::NAN] {
+        let settings = Settings { epsilon: eps, ..Settings::default() };
+        let e = Scene::new(box16(), fluid()).capsule(sphere()).settings(settings).build();
+        assert!(matches!(e, Err(Error::InvalidParameter { name: "epsilon", .. })), "epsilon {eps}");
+    }
+    // A capsule next to a wall.
+    let mut bc = [[Boundary::Periodic; 2]; 3];
+    bc[2] = [Boundary::wall(), Boundary::wall()];
+    let walled = Grid::new([16; 3], [0.0; 3], [1.0; 3], bc).unwrap();
+    let e = Scene::new(walled.clone(), fluid()).capsule(Sphere::new([0.5, 0.5, 0.3], 0.25).unwrap()).build();
+    assert!(e.is_err(), "a capsule 0.05 from a wall was accepted");
+    assert!(Scene::new(walled, fluid()).capsule(Sphere::new([0.5; 3], 0.2).unwrap()).build().is_ok());
+    // A 2D shape on a 3D grid.
+    let e = Scene::new(box16(), fluid()).capsule(Circle::new([0.5, 0.5], 0.25).unwrap()).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "capsule", .. })));
+    // Non-positive materials.
+    assert!(Phase::new(0.0, 1.0).is_err() && Phase::new(1.0, -1.0).is_err());
+    // Bad steps.
+    let mut sim = Scene::new(box16(), fluid()).capsule(sphere()).build().unwrap();
+    for dt in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(matches!(sim.step(dt), Err(Error::InvalidParameter { name: "dt", .. })));
+    }
+    assert!(sim.prestretch(0, 1.1).is_err(), "prestretch without elasticity");
+    assert!(sim.phi(1).is_err());
+}
+
+/// Volume is conserved to round-off, and a pre-stretched capsule at rest pushes the fluid
+/// inside to a higher pressure (the sign and rough size of the Laplace jump; the accurate check
+/// is the `inflated_capsule` example).
+#[test]
+fn a_prestretched_capsule_holds_a_pressure_jump() {
+    let mut sim = Scene::new(box16(), fluid())
+        .capsule(Sphere::new([0.5; 3], 0.3).unwrap())
+        .elasticity(NeoHookean::new(1.0).unwrap())
+        .build()
+        .unwrap();
+    let v0 = sim.volume(0).unwrap();
+    sim.prestretch(0, 1.05).unwrap();
+    for _ in 0..20 {
+        sim.step(2e-3).unwrap();
+    }
+    let g = sim.grid();
+    let p = sim.pressure();
+    let jump = p.data[g.idx_u(8, 8, 8)] - p.data[g.idx_u(0, 0, 0)];
+    let tension = eulermembrane::membrane::equibiaxial_tension(&NeoHookean::new(1.0).unwrap(), 1.05).unwrap();
+    let expected = 2.0 * tension / 0.3;
+    assert!((jump / expected - 1.0).abs() < 0.25, "jump {jump} vs 2T/r = {expected}");
+    let drift = (sim.volume(0).unwrap() - v0).abs() / v0;
+    assert!(drift < 1e-12, "volume drift {drift:e}");
+}
+
+/// Two capsules carried past each other at close range (surfaces about one cell apart) keep
+/// their own `phi`: each keeps its volume, both keep a clear interior, and the two fields
+/// hardly overlap, so they never form one blob.
+#[test]
+fn two_capsules_passing_close_do_not_merge() {
+    let g = Grid::periodic([32, 16, 16], [0.0; 3], [2.0, 1.0, 1.0]).unwrap();
+    let mut sim = Scene::new(g, Phase::new(1.0, 0.01).unwrap())
+        .capsule(Sphere::new([0.7, 0.27, 0.5], 0.2).unwrap())
+        .capsule(Sphere::new([1.3, 0.73, 0.5], 0.2).unwrap())
+        .elasticity(NeoHookean::new(0.5).unwrap())
+        .build()
+        .unwrap();
+    // Opposite streams along x: y < 0.5 moves +x, y > 0.5 moves -x.
+    sim.set_velocity(|x| [(2.0 * std::f64::consts::PI * x[1]).sin(), 0.0, 0.0]).unwrap();
+    let v = [sim.volume(0).unwrap(), sim.volume(1).unwrap()];
+    let g = sim.grid().clone();
+    let mut max_overlap = 0.0_f64;
+    let mut passed = false;
+    for _ in 0..200 {
+        sim.step(5e-3).unwrap();
+        let (p0, p1) = (sim.phi(0).unwrap(), sim.phi(1).unwrap());
+        let overlap: f64 =
+            g.cells().map(|(i, j, k)| p0.data[g.idx_u(i, j, k)] * p1.data[g.idx_u(i, j, k)]).sum();
+        max_overlap = max_overlap.max(overlap * g.cell_volume() / v[0]);
+        if sim.centroid(0).unwrap()[0] > sim.centroid(1).unwrap()[0] + 0.1 {
+            passed = true;
+            break;
+        }
+    }
+    assert!(passed, "the capsules did not pass each other: {:?} {:?}", sim.centroid(0), sim.centroid(1));
+    for (c, v) in v.iter().enumerate() {
+        let drift = (sim.volume(c).unwrap() - v).abs() / v;
+        assert!(drift < 1e-12, "capsule {c} volume drift {drift:e}");
+        let phi = sim.phi(c).unwrap();
+        let max = g.cells().map(|(i, j, k)| phi.data[g.idx_u(i, j, k)]).fold(0.0, f64::max);
+        assert!(max > 0.9, "capsule {c} lost its interior: max phi {max}");
+    }
+    assert!(max_overlap < 0.05, "the two phi fields overlap by {max_overlap:.3} of a capsule volume");
+    println!("steps to pass: {}, max overlap {max_overlap:.2e}", sim.steps());
+}
