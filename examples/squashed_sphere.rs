@@ -16,7 +16,7 @@
 //! coarsest grid, N = 16, puts the capsule (1.6 cells in radius) within two cells of the walls,
 //! closer than the library allows.
 //!
-//! Flags: `--n N` (64), `--t-end T` (2), `--gamma G` (4), `--vtk-every S` (0.25, in time units;
+//! Flags: `--n N` (64), `--dt` (`0.02 (16/N)^2`), `--t-end T` (2), `--gamma G` (4), `--vtk-every S` (0.25, in time units;
 //! 0 for none), `--convergence`, `--max-n N` (64), `--out DIR` (`out/squashed_sphere`).
 //!
 //! Run: `cargo run --release --example squashed_sphere -- --n 64`.
@@ -54,7 +54,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let n: usize = args.get("n", 64);
     let t_end: f64 = args.get("t-end", 2.0);
     let vtk_every: f64 = args.get("vtk-every", 0.25);
-    history(n, t_end, gamma, vtk_every, &out)
+    let dt: f64 = args.get("dt", dt_of(n));
+    history(n, dt, t_end, gamma, vtk_every, &out)
 }
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.
@@ -87,13 +88,13 @@ struct Sample {
 
 fn history(
     n: usize,
+    dt: f64,
     t_end: f64,
     gamma: f64,
     vtk_every: f64,
     out: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let mut sim = build(n, gamma)?;
-    let dt = dt_of(n);
     let steps = (t_end / dt).round() as usize;
     let g = sim.grid().clone();
     eprintln!("squashed_sphere: {:?} cells, dt = {dt:.3e}, {steps} steps to t = {t_end}", g.n());

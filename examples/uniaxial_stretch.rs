@@ -34,9 +34,11 @@
 //! at small strain where the digitisation scatter (≈ ±0.02 G_s) is a large fraction of a
 //! small tension (see tests/membrane_laws.rs, `bb2002_pointwise_relative_errors`).
 
+mod common;
+
 use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw, uniaxial_tension};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -69,35 +71,6 @@ fn parse_args() -> BoxResult<Args> {
         }
     }
     Ok(args)
-}
-
-/// `shared/reference` beside the checkout (CI and the main checkout) or two levels up (a git
-/// worktree), unless given.
-fn reference_dir(given: Option<PathBuf>) -> BoxResult<PathBuf> {
-    if let Some(d) = given {
-        return Ok(d);
-    }
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    for c in [root.join("../shared"), root.join("shared"), root.join("../../shared")] {
-        let d = c.join("reference");
-        if d.join("uniaxial_stretch").is_dir() {
-            return Ok(d);
-        }
-    }
-    Err("shared/reference/uniaxial_stretch not found beside the checkout; pass --reference DIR".into())
-}
-
-fn read_points(path: &Path) -> BoxResult<Vec<(f64, f64)>> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?;
-    let mut pts = Vec::new();
-    for (k, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-        let mut it = line.split(',').map(|x| x.trim().parse::<f64>());
-        match (it.next(), it.next()) {
-            (Some(Ok(x)), Some(Ok(y))) => pts.push((x, y)),
-            _ => return Err(format!("{}:{}: expected two numbers", path.display(), k + 1).into()),
-        }
-    }
-    Ok(pts)
 }
 
 /// One law's comparison with the published points.
@@ -160,14 +133,14 @@ fn main() -> BoxResult<()> {
     std::fs::write(&curves_path, csv).map_err(|e| format!("{}: {e}", curves_path.display()))?;
 
     // 3: published points.
-    let refdir = reference_dir(args.reference)?.join("uniaxial_stretch");
+    let refdir = common::reference_dir(args.reference, "uniaxial_stretch")?;
     let mut published = Vec::new();
     for (name, file, law) in [
         ("neo_hookean", "barthes_biesel_2002_neo_hookean.csv", &neo as &dyn SurfaceLaw<f64>),
         ("skalak", "barthes_biesel_2002_skalak.csv", &skalak),
     ] {
         let mut points = Vec::new();
-        for (e1, y) in read_points(&refdir.join(file))? {
+        for (e1, y) in common::read_points(&refdir.join(file))? {
             let (t, _) = uniaxial_tension(law, (1.0 + 2.0 * e1).sqrt())?;
             points.push((e1, y, t));
         }

@@ -2,7 +2,9 @@
 #![allow(dead_code)]
 
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+pub mod shear;
 
 /// Command-line flags `--key value` and bare `--flag`.
 pub struct Args {
@@ -80,4 +82,34 @@ pub fn result(pairs: &[(&str, String)]) {
 /// Formats a number for a RESULT line.
 pub fn num(x: f64) -> String {
     format!("{x:.4e}")
+}
+
+/// The folder `sub` of `shared/reference` beside the checkout (CI and the main checkout) or two
+/// levels up (a git worktree), unless `given` (the `reference` folder itself).
+pub fn reference_dir(given: Option<PathBuf>, sub: &str) -> Result<PathBuf, Box<dyn std::error::Error>> {
+    if let Some(d) = given {
+        return Ok(d.join(sub));
+    }
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    for c in [root.join("../shared"), root.join("shared"), root.join("../../shared")] {
+        let d = c.join("reference").join(sub);
+        if d.is_dir() {
+            return Ok(d);
+        }
+    }
+    Err(format!("shared/reference/{sub} not found beside the checkout; pass --reference DIR").into())
+}
+
+/// The `(x, y)` points of a headerless two-column CSV file of `shared/reference`.
+pub fn read_points(path: &Path) -> Result<Vec<(f64, f64)>, Box<dyn std::error::Error>> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?;
+    let mut pts = Vec::new();
+    for (k, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        let mut it = line.split(',').map(|x| x.trim().parse::<f64>());
+        match (it.next(), it.next()) {
+            (Some(Ok(x)), Some(Ok(y))) => pts.push((x, y)),
+            _ => return Err(format!("{}:{}: expected two numbers", path.display(), k + 1).into()),
+        }
+    }
+    Ok(pts)
 }

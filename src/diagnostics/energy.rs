@@ -22,6 +22,7 @@
 
 use super::reduce::{check_field, check_vector, finite_or, sum_cells};
 use crate::fluid::Coefficient;
+use crate::fluid::momentum::{ViscosityView, is_wall_face, viscous_at};
 use crate::grid::ops::{grad_v_at_cell, velocity_at_cell};
 use crate::grid::{Field, Grid, VectorField};
 use crate::{Error, Real, Result};
@@ -76,6 +77,11 @@ pub enum DissipationForm {
     GradGrad,
     /// `2 mu D : D`, `D = (grad v + grad v^T)/2`: the local dissipation of a Newtonian fluid.
     StrainRate,
+    /// `- sum_faces v . div_h(mu (grad_h v + grad_h v^T))`: minus the power of the stepper's
+    /// own discrete viscous operator (walls at rest, or periodic). The discrete momentum
+    /// equation then balances kinetic energy against this rate up to the time discretisation,
+    /// so it is the form to use in an energy budget of the solver.
+    Discrete,
 }
 
 /// Viscous dissipation rate `Phi = sum mu grad v : grad v dV` (or `sum 2 mu D : D dV`, see
@@ -91,6 +97,18 @@ pub fn viscous_dissipation<T: Real>(
 ) -> Result<f64> {
     check_vector(grid, "v", v)?;
     check_coefficient(grid, "mu", mu)?;
+    if form == DissipationForm::Discrete {
+        let view = ViscosityView::new(grid, mu, None);
+        let s = sum_cells(grid, |idx, ijk| {
+            let power = (0..3)
+                .filter(|&c| !is_wall_face(grid, c, ijk))
+                .map(|c| v.c[c].data[idx].f64() * viscous_at(grid, &view, v, c, idx).f64())
+                .sum::<f64>();
+            [-power]
+        });
+        let [s] = finite_or(s, grid, &with_coefficient(velocity_fields(v).to_vec(), "mu", mu))?;
+        return Ok(s * grid.cell_volume().f64());
+    }
     let s = sum_cells(grid, |idx, _| {
         let g = grad_v_at_cell(grid, v, idx);
         let mut c = 0.0;
@@ -103,6 +121,7 @@ pub fn viscous_dissipation<T: Real>(
                         let d = 0.5 * (gij + g[j][i].f64());
                         2.0 * d * d
                     }
+                    DissipationForm::Discrete => unreachable!("handled above"),
                 };
             }
         }

@@ -423,7 +423,7 @@ impl<T: Real> Simulation<T> {
         let m = self.flow.materials();
         let v = self.flow.velocity();
         let kinetic = kinetic_energy(g, v, &m.rho)?;
-        let dissipation_rate = viscous_dissipation(g, v, &m.mu, DissipationForm::GradGrad)?;
+        let dissipation_rate = viscous_dissipation(g, v, &m.mu, DissipationForm::Discrete)?;
         let mut body_power = 0.0;
         if self.body_force.is_active() || self.surface_force.is_some() {
             let f = self.force.get_or_insert_with(|| VectorField::zeros(g));

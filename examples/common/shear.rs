@@ -1,0 +1,198 @@
+//! The capsule in simple shear flow of Sec. 3.3, shared by the `shear_capsule`,
+//! `accuracy_cost` and `stability` examples: the scene, a run that records the Taylor
+//! deformation `D(t)`, and the published late-time values.
+//!
+//! Set-up: `x in [-4, 4]`, `y in [-2, 2]`, `z in [-4, 4]` on `(N, N/2, N)` cells, periodic in x
+//! and y, walls `z = -4, 4` moving at `-4, +4` along x (shear rate 1), a sphere of radius
+//! `a = 1` at the origin, `rho = 1`, `Re = rho a^2 / mu = 0.01` so `mu = 100`,
+//! `E_s = mu a / Ca` (neo-Hookean), bending `E_b = E_b' a^2 E_s`. The flow starts as the
+//! undisturbed shear `u = z`. Time is in units of the inverse shear rate.
+#![allow(dead_code)]
+
+use eulermembrane::Real;
+use eulermembrane::diagnostics::taylor_deformation;
+use eulermembrane::grid::{Boundary, Grid};
+use eulermembrane::interface::shapes::Sphere;
+use eulermembrane::io::vtk::PvdSeries;
+use eulermembrane::membrane::NeoHookean;
+use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use std::path::Path;
+use std::time::Instant;
+
+/// Viscosity of the suspending fluid (`Re = 0.01`).
+pub const MU: f64 = 100.0;
+
+/// Late-time Taylor deformation of Ramanujan & Pozrikidis (1998), boundary elements, Stokes
+/// flow, viscosity ratio 1: `(Ca, D)`.
+pub const LATE_TIME_D: [(f64, f64); 4] = [(0.025, 0.150), (0.05, 0.261), (0.1, 0.384), (0.2, 0.500)];
+
+/// The published late-time `D` at `ca`, if there is one.
+pub fn reference_d(ca: f64) -> Option<f64> {
+    LATE_TIME_D.iter().find(|(c, _)| (c / ca - 1.0).abs() < 1e-9).map(|&(_, d)| d)
+}
+
+/// One shear-flow run.
+#[derive(Clone, Debug)]
+pub struct ShearCase {
+    /// Cells along x (and z); `N/2` along y.
+    pub n: usize,
+    /// Capillary number `mu a / E_s`.
+    pub ca: f64,
+    /// Reduced bending modulus `E_b / (a^2 E_s)`; none if zero.
+    pub eb_prime: f64,
+    /// Viscosity inside over viscosity outside.
+    pub lambda: f64,
+    /// Time step.
+    pub dt: f64,
+    /// End time.
+    pub t_end: f64,
+}
+
+impl ShearCase {
+    /// The paper's time step for `n`: `0.001 (128/N)^2` (Sec. 3.3.1).
+    pub fn paper_dt(n: usize) -> f64 {
+        0.001 * (128.0 / n as f64).powi(2)
+    }
+}
+
+/// A sample of the history.
+#[derive(Clone, Copy, Debug)]
+pub struct ShearSample {
+    /// Time.
+    pub t: f64,
+    /// Taylor deformation `D`.
+    pub d: f64,
+    /// Inclination of the major axis to the flow, degrees.
+    pub angle_deg: f64,
+    /// Surface area `sum delta h^3` over its initial value.
+    pub area_ratio: f64,
+    /// Relative volume change since t = 0.
+    pub volume_drift: f64,
+    /// Predictor iterations of the step.
+    pub iterations: usize,
+}
+
+/// What a run measured.
+#[derive(Clone, Debug)]
+pub struct ShearOutcome {
+    /// The history.
+    pub samples: Vec<ShearSample>,
+    /// Mean `D` over the last time unit.
+    pub d_steady: f64,
+    /// Mean inclination over the last time unit, degrees.
+    pub angle_steady: f64,
+    /// Largest relative volume change.
+    pub max_volume_drift: f64,
+    /// Wall-clock seconds of the time loop.
+    pub wall_s: f64,
+    /// Steps taken.
+    pub steps: usize,
+}
+
+/// The scene of Sec. 3.3 in precision `T`, with `settings`.
+pub fn build<T: Real>(case: &ShearCase, settings: Settings<T>) -> eulermembrane::Result<Simulation<T>> {
+    let n = case.n;
+    if n < 16 || n % 2 != 0 {
+        return Err(eulermembrane::Error::invalid("--n", n, "an even number of cells >= 16"));
+    }
+    let u = T::lit(4.0);
+    let mut bc = [[Boundary::Periodic; 2]; 3];
+    bc[2] = [
+        Boundary::Wall { velocity: [-u, T::zero(), T::zero()] },
+        Boundary::Wall { velocity: [u, T::zero(), T::zero()] },
+    ];
+    let grid = Grid::new([n, n / 2, n], [T::lit(-4.0), T::lit(-2.0), T::lit(-4.0)], [u, T::lit(2.0), u], bc)?;
+    let es = MU / case.ca;
+    let mut scene = Scene::new(grid, Phase::new(T::one(), T::lit(MU))?)
+        .inside(Phase::new(T::one(), T::lit(MU * case.lambda))?)
+        .capsule(Sphere::new([0.0; 3], 1.0)?)
+        .elasticity(NeoHookean::new(T::lit(es))?)
+        .settings(settings);
+    if case.eb_prime > 0.0 {
+        scene = scene.bending(T::lit(case.eb_prime * es));
+    }
+    let mut sim = scene.build()?;
+    sim.set_velocity(|x| [x[2], T::zero(), T::zero()])?;
+    Ok(sim)
+}
+
+/// Runs `case` to its end time, measuring `D` every `sample_every` time units, printing
+/// progress to stderr every 5 %, writing a VTK snapshot every `vtk_every` time units (0: none)
+/// into `vtk_dir`.
+pub fn run<T: Real>(
+    case: &ShearCase,
+    settings: Settings<T>,
+    sample_every: f64,
+    vtk: Option<(&Path, f64)>,
+    quiet: bool,
+) -> Result<ShearOutcome, Box<dyn std::error::Error>> {
+    let mut sim = build(case, settings)?;
+    let steps = (case.t_end / case.dt).round().max(1.0) as usize;
+    let dt = T::lit(case.dt);
+    let v0 = sim.volume(0)?;
+    let a0 = sim.area(0)?;
+    let every = ((sample_every / case.dt).round() as usize).max(1);
+    let mut samples = Vec::new();
+    let mut pvd = PvdSeries::new();
+    let mut next_vtk = 0.0;
+    let mut max_drift = 0.0f64;
+    let clock = Instant::now();
+    let mut iterations = 0;
+    for s in 0..=steps {
+        if s > 0 {
+            iterations = sim.step(dt)?.flow.predictor_iterations;
+        }
+        let t = sim.time().f64();
+        if s % every == 0 || s == steps {
+            let drift = (sim.volume(0)? - v0).abs() / v0;
+            max_drift = max_drift.max(drift);
+            let centre = sim.centroid(0)?;
+            let td = taylor_deformation(sim.grid(), sim.phi(0)?, centre, 1)?;
+            samples.push(ShearSample {
+                t,
+                d: td.deformation,
+                angle_deg: td.angle_deg,
+                area_ratio: sim.area(0)? / a0,
+                volume_drift: drift,
+                iterations,
+            });
+        }
+        if let Some((dir, every_t)) = vtk
+            && every_t > 0.0
+            && t >= next_vtk - 1e-9
+        {
+            let name = format!("shear_{s:06}.vti");
+            sim.write_vti(dir.join(&name))?;
+            pvd.push(t, name);
+            next_vtk += every_t;
+        }
+        if !quiet && s > 0 && (s % (steps / 20).max(1) == 0 || s == steps) {
+            let last = samples.last().expect("sampled at step 0");
+            let el = clock.elapsed().as_secs_f64();
+            eprintln!(
+                "  step {s}/{steps} t={t:.2} D={:.4} angle={:.1} area={:.4} iters={iterations} ({el:.0} s, ~{:.0} s left)",
+                last.d,
+                last.angle_deg,
+                last.area_ratio,
+                el * (steps - s) as f64 / s as f64
+            );
+        }
+    }
+    let wall_s = clock.elapsed().as_secs_f64();
+    if let Some((dir, every_t)) = vtk
+        && every_t > 0.0
+    {
+        pvd.write(dir.join("shear.pvd"))?;
+    }
+    let t_end = sim.time().f64();
+    let last: Vec<&ShearSample> = samples.iter().filter(|s| s.t >= t_end - 1.0 - 1e-9).collect();
+    let mean = |f: fn(&ShearSample) -> f64| last.iter().map(|s| f(s)).sum::<f64>() / last.len() as f64;
+    Ok(ShearOutcome {
+        d_steady: mean(|s| s.d),
+        angle_steady: mean(|s| s.angle_deg),
+        max_volume_drift: max_drift,
+        wall_s,
+        steps,
+        samples,
+    })
+}
