@@ -1,0 +1,350 @@
+//! Sec. 3.4 of the paper: biconcave red blood cells (Skalak law, bending) in pressure-driven
+//! channel flow. Domain `[0, 0.5]^3`, walls `y = 0, 0.5`, periodic x and z, `rho = 1`,
+//! `mu = 0.25` inside and `0.05` outside, `E_s = 0.05`, `E_b = 5e-5`, pressure gradient `-1`
+//! (a body force `+1` along x), `dt = 0.001`. The cells' axis is along the flow (x).
+//!
+//! `--case single` (default): one cell, `a = 0.17`, at the centre, for each `alpha` of
+//! `--alpha` (2,10,40) to `--t-end` (2): the surface area by (3.7) and by `sum delta h^3`
+//! (`area_alpha*.csv`, `area.svg` like Fig. 12), the x-z section at `y = 0.25` at the end
+//! (`sections.svg`, Fig. 13); a line per alpha `RESULT alpha=... max_area_change=...
+//! volume_drift=...` (`max_area_change` of the (3.7) area).
+//!
+//! `--case two1` / `--case two2`: two cells at (3.8) / (3.9), `alpha = 40`, to `--t-end`
+//! (default 7.5 for these cases): x-z sections at `y = 0.25` (Fig. 16), the streamwise-averaged
+//! velocity `u(z)` on `y = 0.25` with and without cells (Fig. 17, `profile.csv`), and the
+//! parachute signature `rear_concavity` (how far the centre of each cell's trailing face lies
+//! ahead of the face at 0.6 a from the axis; positive = concave trailing face):
+//! `RESULT case=... rear_concavity=... volume_drift=... wall_s=...`.
+//!
+//! `--case many`: `--cells` cells (8) of `a = 0.06` on a lattice, periodic x and y (walls
+//! in z), `mu = 0.5 / 0.1`, `E_s = 0.1`, `alpha = 10`, `E_b = 5e-6`, `dt = 0.00025` (Sec. 3.4.3),
+//! an opt-in long run; works at reduced `--n`.
+//!
+//! Flags: `--n` (32; the paper uses 64, 128 for `many`), `--dt`, `--t-end`, `--alpha LIST`,
+//! `--case`, `--cells`, `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
+//!
+//! Run: `cargo run --release --example rbc_channel -- --n 32`.
+
+mod common;
+
+use common::{Args, num, result};
+use eulermembrane::diagnostics::AreaTracker;
+use eulermembrane::grid::{Boundary, Field, Grid};
+use eulermembrane::interface::shapes::Biconcave;
+use eulermembrane::io::csv::{CsvWriter, write_columns};
+use eulermembrane::io::plot::{Figure, contour_segments};
+use eulermembrane::io::vtk::PvdSeries;
+use eulermembrane::membrane::Skalak;
+use eulermembrane::simulation::{Phase, Scene, Simulation};
+use std::path::Path;
+use std::time::Instant;
+
+type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
+
+const L: f64 = 0.5;
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("error: {e}");
+        std::process::exit(1);
+    }
+}
+
+/// The physical parameters of a scene.
+struct Params {
+    mu_in: f64,
+    mu_out: f64,
+    es: f64,
+    eb: f64,
+    alpha: f64,
+    radius: f64,
+    wall_axis: usize,
+}
+
+const PAPER: Params =
+    Params { mu_in: 0.25, mu_out: 0.05, es: 0.05, eb: 5e-5, alpha: 40.0, radius: 0.17, wall_axis: 1 };
+
+fn run() -> BoxResult<()> {
+    let args = Args::parse();
+    let out = args.out_dir("rbc_channel");
+    let n: usize = args.get("n", 32);
+    let case: String = args.get("case", "single".to_string());
+    let vtk_every: f64 = args.get("vtk-every", 0.5);
+    match case.as_str() {
+        "single" => {
+            let alphas: String = args.get("alpha", "2,10,40".to_string());
+            let alphas: Vec<f64> = alphas.split(',').map(|a| a.trim().parse()).collect::<Result<_, _>>()?;
+            single(n, args.get("dt", 0.001), args.get("t-end", 2.0), &alphas, &out)
+        }
+        "two1" | "two2" => {
+            let z = if case == "two1" { [0.25, 0.25] } else { [0.23, 0.27] };
+            let centres = vec![[0.125, 0.25, z[0]], [0.375, 0.25, z[1]]];
+            two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, vtk_every, &out)
+        }
+        "many" => {
+            many(n, args.get("dt", 0.00025), args.get("t-end", 5.0), args.get("cells", 8), vtk_every, &out)
+        }
+        other => Err(format!("--case {other}: expected single, two1, two2 or many").into()),
+    }
+}
+
+/// A channel scene with the cells at `centres`.
+fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Simulation<f64>> {
+    let mut bc = [[Boundary::Periodic; 2]; 3];
+    bc[p.wall_axis] = [Boundary::wall(), Boundary::wall()];
+    let grid = Grid::new([n; 3], [0.0; 3], [L; 3], bc)?;
+    let mut s = Scene::new(grid, Phase::new(1.0, p.mu_out)?).inside(Phase::new(1.0, p.mu_in)?);
+    for &c in centres {
+        s = s.capsule(Biconcave::new(c, p.radius)?);
+    }
+    s.elasticity(Skalak::new(p.es, p.alpha)?).bending(p.eb).body_force([1.0, 0.0, 0.0]).build()
+}
+
+/// Prints progress every 5 %.
+fn progress(s: usize, steps: usize, t: f64, clock: &Instant, extra: &str) {
+    if s % (steps / 20).max(1) == 0 || s == steps {
+        let el = clock.elapsed().as_secs_f64();
+        eprintln!(
+            "  step {s}/{steps} t={t:.3} {extra} ({el:.0} s, ~{:.0} s left)",
+            el * (steps - s) as f64 / s as f64
+        );
+    }
+}
+
+fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], out: &Path) -> BoxResult<()> {
+    let steps = (t_end / dt).round() as usize;
+    let mut fig =
+        Figure::new(format!("surface area by (3.7), N = {n} (Fig. 12)")).x_label("t").y_label("s / s0");
+    let mut sections = Figure::new(format!("x-z section at y = 0.25, t = {t_end} (Fig. 13)"))
+        .x_label("x")
+        .y_label("z")
+        .equal_aspect(true);
+    let mut lines = Vec::new();
+    for &alpha in alphas {
+        let p = Params { alpha, ..PAPER };
+        let mut sim = scene(n, &p, &[[0.25; 3]])?;
+        eprintln!("rbc_channel single: alpha = {alpha}, {n}^3 cells, {steps} steps of dt = {dt}");
+        let g = sim.grid().clone();
+        let mut tracker = AreaTracker::from_delta(&g, sim.delta(0)?)?;
+        let (a0, v0) = (sim.area(0)?, sim.volume(0)?);
+        let mut csv = CsvWriter::create(
+            out.join(format!("area_alpha{alpha}.csv")),
+            &["t", "area_37", "area_delta", "volume_drift"],
+        )?;
+        let (mut t, mut s37, mut max_change, mut max_drift) = (vec![0.0], vec![1.0], 0.0f64, 0.0f64);
+        csv.row(&[0.0, 1.0, 1.0, 0.0])?;
+        let clock = Instant::now();
+        for s in 1..=steps {
+            tracker.step(&g, sim.delta(0)?, sim.normal(0)?, sim.velocity(), dt)?;
+            sim.step(dt)?;
+            let rel = tracker.relative();
+            let drift = (sim.volume(0)? - v0).abs() / v0;
+            max_change = max_change.max((rel - 1.0).abs());
+            max_drift = max_drift.max(drift);
+            t.push(sim.time());
+            s37.push(rel);
+            csv.row(&[sim.time(), rel, sim.area(0)? / a0, drift])?;
+            progress(s, steps, sim.time(), &clock, &format!("s/s0={rel:.4}"));
+        }
+        csv.finish()?;
+        fig.line(&t, &s37, &format!("alpha = {alpha}"));
+        sections.segments(section_y(&g, sim.phi(0)?, 0.25), &format!("alpha = {alpha}"));
+        lines.push(vec![
+            ("alpha", alpha.to_string()),
+            ("n", n.to_string()),
+            ("max_area_change", num(max_change)),
+            ("final_area_delta", num(sim.area(0)? / a0)),
+            ("volume_drift", num(max_drift)),
+            ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
+        ]);
+    }
+    fig.save(out.join("area.svg"))?;
+    sections.save(out.join("sections.svg"))?;
+    for l in &lines {
+        result(l);
+    }
+    Ok(())
+}
+
+/// The `phi = 1/2` contour in the x-z plane through `y`.
+fn section_y(g: &Grid<f64>, phi: &Field<f64>, y: f64) -> Vec<[(f64, f64); 2]> {
+    let [nx, ny, nz] = g.n();
+    let h = g.h();
+    let j = ((y / h[1]) as usize).min(ny - 1);
+    let vals: Vec<f64> =
+        (0..nz).flat_map(|k| (0..nx).map(move |i| (i, k))).map(|(i, k)| phi.data[g.idx_u(i, j, k)]).collect();
+    contour_segments(nx, nz, 0.5 * h[0], 0.5 * h[2], h[0], h[2], &vals, 0.5)
+}
+
+/// Streamwise-averaged `u` on the plane `y = 0.25` as a function of z.
+fn profile(sim: &Simulation<f64>) -> Vec<f64> {
+    let g = sim.grid();
+    let [nx, ny, nz] = g.n();
+    let j = ny / 2;
+    let u = &sim.velocity().c[0];
+    (0..nz)
+        .map(|k| {
+            (0..nx).map(|i| 0.5 * (u.data[g.idx_u(i, j, k)] + u.data[g.idx_u(i, j - 1, k)])).sum::<f64>()
+                / nx as f64
+        })
+        .collect()
+}
+
+/// How far the centre of the trailing (upstream, low-x) face lies ahead of the face at `0.6 a`
+/// from the axis, for the cell with `phi`; the axis passes through the centroid along x.
+fn rear_concavity(g: &Grid<f64>, phi: &Field<f64>, centre: [f64; 3], a: f64) -> Option<f64> {
+    let rear = |dz: f64| -> Option<f64> {
+        let h = g.h();
+        let (nx, nz) = (g.n()[0], g.n()[2]);
+        let j = ((centre[1] / h[1]) as usize).min(g.n()[1] - 1);
+        let k = (((centre[2] + dz) / h[2]) as usize).min(nz - 1);
+        let ic = (centre[0] / h[0]) as isize;
+        // Walk upstream from the centre to the last phi >= 1/2 crossing (the trailing face).
+        let line = |i: isize| phi.data[g.idx_u(i.rem_euclid(nx as isize) as usize, j, k)];
+        let mut prev = line(ic);
+        for s in 1..(nx as isize / 2) {
+            let cur = line(ic - s);
+            if prev >= 0.5 && cur < 0.5 {
+                let x_prev = (ic - s + 1) as f64 * h[0] + 0.5 * h[0];
+                return Some(x_prev - h[0] * (prev - 0.5) / (prev - cur));
+            }
+            prev = cur;
+        }
+        None
+    };
+    Some(rear(0.0)? - rear(0.6 * a)?)
+}
+
+fn two(
+    n: usize,
+    dt: f64,
+    t_end: f64,
+    case: &str,
+    centres: &[[f64; 3]],
+    vtk_every: f64,
+    out: &Path,
+) -> BoxResult<()> {
+    let p = PAPER;
+    let mut sim = scene(n, &p, centres)?;
+    let steps = (t_end / dt).round() as usize;
+    eprintln!("rbc_channel {case}: {n}^3 cells, {steps} steps of dt = {dt}");
+    let g = sim.grid().clone();
+    let v0: Vec<f64> = (0..centres.len()).map(|c| sim.volume(c)).collect::<Result<_, _>>()?;
+    let mut pvd = PvdSeries::new();
+    let mut next_vtk = 0.0;
+    let clock = Instant::now();
+    let mut max_drift = 0.0f64;
+    let mut snaps: Vec<(f64, Vec<Field<f64>>)> = Vec::new();
+    let mut next_snap = 0.0;
+    for s in 0..=steps {
+        if s > 0 {
+            sim.step(dt)?;
+            progress(s, steps, sim.time(), &clock, &format!("x1={:.3}", sim.centroid(0)?[0]));
+        }
+        let t = sim.time();
+        for (c, v) in v0.iter().enumerate() {
+            max_drift = max_drift.max((sim.volume(c)? - v).abs() / v);
+        }
+        if vtk_every > 0.0 && t >= next_vtk - 1e-9 {
+            let name = format!("{case}_{s:06}.vti");
+            sim.write_vti(out.join(&name))?;
+            pvd.push(t, name);
+            next_vtk += vtk_every;
+        }
+        if t >= next_snap - 1e-9 || s == steps {
+            snaps.push((t, (0..centres.len()).map(|c| sim.phi(c).cloned()).collect::<Result<_, _>>()?));
+            next_snap += t_end / 3.0;
+        }
+    }
+    if vtk_every > 0.0 {
+        pvd.write(out.join(format!("{case}.pvd")))?;
+    }
+    let mut fig = Figure::new(format!("{case}: x-z sections at y = 0.25 (Fig. 16), N = {n}"))
+        .x_label("x")
+        .y_label("z")
+        .equal_aspect(true);
+    for (t, phis) in &snaps {
+        for phi in phis {
+            fig.segments(section_y(&g, phi, 0.25), &format!("t = {t:.2}"));
+        }
+    }
+    fig.save(out.join(format!("{case}_sections.svg")))?;
+    // Fig. 17: with cells, and the same channel without them (Poiseuille: u = y (L - y) / (2 mu)).
+    let with = profile(&sim);
+    let z: Vec<f64> = (0..n).map(|k| (k as f64 + 0.5) * L / n as f64).collect();
+    let without = vec![0.25 * (L - 0.25) / (2.0 * p.mu_out); n];
+    write_columns(
+        out.join(format!("{case}_profile.csv")),
+        &[("z", &z), ("u_with_cells", &with), ("u_without", &without)],
+    )?;
+    let mut pf = Figure::new(format!("streamwise-averaged u on y = 0.25, t = {t_end} (Fig. 17)"))
+        .x_label("z")
+        .y_label("u");
+    pf.line(&z, &with, &format!("{case}"));
+    pf.line(&z, &without, "without cells");
+    pf.save(out.join(format!("{case}_profile.svg")))?;
+    let conc: Vec<f64> = (0..centres.len())
+        .map(|c| {
+            rear_concavity(
+                &g,
+                sim.phi(c).expect("capsule exists"),
+                sim.centroid(c).expect("capsule exists"),
+                p.radius,
+            )
+            .unwrap_or(f64::NAN)
+        })
+        .collect();
+    result(&[
+        ("case", case.to_string()),
+        ("n", n.to_string()),
+        ("rear_concavity", conc.iter().map(|c| num(*c)).collect::<Vec<_>>().join(",")),
+        ("volume_drift", num(max_drift)),
+        ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
+    ]);
+    Ok(())
+}
+
+fn many(n: usize, dt: f64, t_end: f64, cells: usize, vtk_every: f64, out: &Path) -> BoxResult<()> {
+    let p = Params { mu_in: 0.5, mu_out: 0.1, es: 0.1, eb: 5e-6, alpha: 10.0, radius: 0.06, wall_axis: 2 };
+    // A lattice of cells away from the walls, two per row along x, staggered.
+    let per = (cells as f64).sqrt().ceil() as usize;
+    let centres: Vec<[f64; 3]> = (0..cells)
+        .map(|c| {
+            let (a, b) = (c % per, c / per);
+            let s = L / per as f64;
+            [(a as f64 + 0.5) * s, (b as f64 + 0.5) * s, 0.25 + if (a + b) % 2 == 0 { 0.06 } else { -0.06 }]
+        })
+        .collect();
+    let mut sim = scene(n, &p, &centres)?;
+    let steps = (t_end / dt).round() as usize;
+    eprintln!("rbc_channel many: {cells} cells, {n}^3, {steps} steps of dt = {dt}");
+    let v0: Vec<f64> = (0..cells).map(|c| sim.volume(c)).collect::<Result<_, _>>()?;
+    let (mut pvd, mut next_vtk) = (PvdSeries::new(), 0.0);
+    let clock = Instant::now();
+    for s in 0..=steps {
+        if s > 0 {
+            sim.step(dt)?;
+            progress(s, steps, sim.time(), &clock, "");
+        }
+        if vtk_every > 0.0 && sim.time() >= next_vtk - 1e-9 {
+            let name = format!("many_{s:06}.vti");
+            sim.write_vti(out.join(&name))?;
+            pvd.push(sim.time(), name);
+            next_vtk += vtk_every;
+        }
+    }
+    if vtk_every > 0.0 {
+        pvd.write(out.join("many.pvd"))?;
+    }
+    let drift = (0..cells)
+        .map(|c| sim.volume(c).map(|v| (v - v0[c]).abs() / v0[c]))
+        .collect::<Result<Vec<_>, _>>()?;
+    result(&[
+        ("case", "many".into()),
+        ("cells", cells.to_string()),
+        ("n", n.to_string()),
+        ("volume_drift", num(drift.iter().cloned().fold(0.0, f64::max))),
+        ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
+    ]);
+    Ok(())
+}
