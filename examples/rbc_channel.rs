@@ -280,7 +280,7 @@ fn two(
     let mut pf = Figure::new(format!("streamwise-averaged u on y = 0.25, t = {t_end} (Fig. 17)"))
         .x_label("z")
         .y_label("u");
-    pf.line(&z, &with, &format!("{case}"));
+    pf.line(&z, &with, case);
     pf.line(&z, &without, "without cells");
     pf.save(out.join(format!("{case}_profile.svg")))?;
     let conc: Vec<f64> = (0..centres.len())
