@@ -13,11 +13,12 @@
 //! `sweep.csv` and the plot `sweep.svg` of all histories with the references.
 //!
 //! Flags: `--ca` (0.05), `--n` (32; cells along x and z, N/2 along y; the radius is N/8
-//! cells), `--dt` (the paper's `0.001 (128/N)^2`), `--t-end` (6), `--bending` (`E_b'`, 0 for
+//! cells), `--dt` (half the paper's `0.001 (128/N)^2`, see `common::shear`), `--t-end` (6), `--bending` (`E_b'`, 0 for
 //! none), `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
 //! `--sweep`, `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
-//! Run: `cargo run --release --example shear_capsule` (about 3 minutes on 2 cores).
+//! Run: `cargo run --release --example shear_capsule` (about a minute on 2 cores; `--n 64` for
+//! 8 cells per radius, about 30 minutes).
 
 mod common;
 
@@ -48,7 +49,7 @@ fn run() -> BoxResult<()> {
         ca: args.get("ca", 0.05),
         eb_prime: args.get("bending", 0.0),
         lambda: args.get("lambda", 1.0),
-        dt: args.get("dt", ShearCase::paper_dt(n)),
+        dt: args.get("dt", ShearCase::default_dt(n)),
         t_end: args.get("t-end", 6.0),
     };
     let refdir: Option<std::path::PathBuf> = args.opt("reference");
@@ -107,10 +108,11 @@ fn run() -> BoxResult<()> {
 
 /// Runs one case in the precision the flags ask for.
 fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
+    let tangential_gs = args.flag("tangential-gs");
     if args.flag("f32") {
-        shear::run::<f32>(case, Settings::default(), 0.05, vtk, false)
+        shear::run::<f32>(case, Settings { tangential_gs, ..Settings::default() }, 0.05, vtk, false)
     } else {
-        shear::run::<f64>(case, Settings::default(), 0.05, vtk, false)
+        shear::run::<f64>(case, Settings { tangential_gs, ..Settings::default() }, 0.05, vtk, false)
     }
 }
 

@@ -74,6 +74,7 @@ use crate::fluid::{BodyForce, Coefficient, Forcing, ImplicitTerm, Materials};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::membrane::Band;
 use crate::membrane::stress::energy_density;
+use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
 use capsule::Capsule;
 use forces::{SumForcing, SumImplicit, SurfaceForcing};
@@ -288,6 +289,13 @@ impl<T: Real> Simulation<T> {
         for cap in &mut self.capsules {
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
                 strain.commit(&cap.next.band, &cap.next.normal, gs);
+                if self.settings.tangential_gs {
+                    let n = &cap.next.normal;
+                    for &idx in cap.next.band.cells() {
+                        let p = projector(&[n[0].data[idx], n[1].data[idx], n[2].data[idx]]);
+                        gs.set(idx, &project(&p, &gs.get(idx)));
+                    }
+                }
             }
             cap.commit();
             band_cells += cap.cur.band.len();

@@ -81,6 +81,11 @@ pub struct Settings<T> {
     /// How the in-plane membrane stress enters the predictor. Default
     /// [`MembraneCoupling::QuasiImplicit`] (2.32)-(2.35).
     pub coupling: MembraneCoupling,
+    /// Projects `G_s` onto the tangent plane, `G_s <- P G_s P` with the new normals, on the
+    /// band after each transport step (2.40). In the continuum `G_s` stays tangential; the
+    /// discrete transport lets normal components grow, which feed the in-plane block through
+    /// the velocity gradient. Not in the paper. Default `false`.
+    pub tangential_gs: bool,
 }
 
 /// How the in-plane membrane stress enters the momentum predictor.
@@ -104,6 +109,7 @@ impl<T: Real> Default for Settings<T> {
             epsilon: T::lit(0.01),
             smoothing: Smoothing::default(),
             coupling: MembraneCoupling::default(),
+            tangential_gs: false,
         }
     }
 }
