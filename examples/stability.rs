@@ -5,8 +5,8 @@
 //! the quasi-implicit and with the fully explicit membrane stress.
 //!
 //! Modes (`--mode`):
-//! - `cases` (default, about 10 minutes on 2 cores at `--n 16`): per case the bracket of the
-//!   largest stable `dt` over `t = 2` for both couplings, one line
+//! - `cases` (default; about an hour on one core at `--n 16`): per case the bracket of the
+//!   largest stable `dt` over `t = 4` (`--t-end`) for both couplings, one line
 //!   `RESULT case=... dt_quasi=... dt_explicit=... ratio=... limit_quasi=... limit_explicit=...`
 //!   each (`limit_*`: how the first unstable `dt` failed);
 //! - `sweep`: the membrane-limited time step against `E_s`, `h` and `mu` (shear rate 0.1, so
@@ -14,11 +14,13 @@
 //!   fit `dt = C mu^a h^b E_s^c` per coupling, `RESULT fit=explicit c=... mu_exp=... ...`;
 //! - `breakup`: `Ca = 0.2, 0.4, ... 6.4` at a fixed `dt` to `t = --t-end` (6): where the method
 //!   fails or the capsule breaks up, `RESULT case=breakup ca=... ...` per capillary number;
-//! - `long`: `--steps` (10^4) steps of the `Ca = 0.05` capsule on a coarse grid (`--n 12`),
-//!   `RESULT case=long steps=... volume_drift=... area_drift=... elastic_max=...`.
+//! - `long`: `--steps` (10^4) steps of `--dt` (0.01) of the `Ca = 0.05` capsule (or `--case`)
+//!   on a coarse grid (`--n 12`),
+//!   `RESULT case=long_... steps=... volume_drift=... area_drift=... elastic_max=...`.
 //!
-//! Flags: `--n N` (16; cells along x of the 4-wide box), `--mode M`, `--t-end T`, `--dt DT`
-//! (breakup, long), `--steps S` (long), `--out DIR` (`out/stability`: a CSV per mode).
+//! Flags: `--n N` (16; cells along x of the 4-wide box), `--mode M`, `--t-end T`, `--only CASE`
+//! (cases; `in_plane` or `bending` for sweep), `--dt DT` (breakup, long), `--steps S` (long), `--case CASE` (long), `--out DIR`
+//! (`out/stability`: a CSV per mode).
 //!
 //! Run: `cargo run --release --example stability -- --mode sweep`.
 
@@ -47,8 +49,8 @@ fn start() -> Res {
     let out = args.out_dir("stability");
     let n: usize = args.get("n", 16);
     match args.get("mode", "cases".to_string()).as_str() {
-        "cases" => all_cases(n, args.get("t-end", 4.0), &out),
-        "sweep" => sweep(n, &out),
+        "cases" => all_cases(n, args.get("t-end", 4.0), args.opt("only"), &out),
+        "sweep" => sweep(n, args.opt("only"), &out),
         "breakup" => breakup(n, args.get("dt", 0.01), args.get("t-end", 6.0), &out),
         "long" => {
             let name: String = args.get("case", "coarse".to_string());
@@ -81,7 +83,7 @@ fn brackets(case: &Case, n: usize, search: Search) -> [Bracket; 2] {
     })
 }
 
-fn all_cases(n: usize, t_end: f64, out: &Path) -> Res {
+fn all_cases(n: usize, t_end: f64, only: Option<String>, out: &Path) -> Res {
     let mut csv = CsvWriter::create(
         out.join("cases.csv"),
         &[
@@ -97,7 +99,7 @@ fn all_cases(n: usize, t_end: f64, out: &Path) -> Res {
         ],
     )?;
     let search = Search { t_end, min_steps: 50, lo: 2.5e-3, hi: 6.4e-2, iters: 5 };
-    for case in cases() {
+    for case in cases().into_iter().filter(|c| only.as_ref().is_none_or(|o| o == c.name)) {
         let [q, e] = brackets(&case, n, search);
         let ratio = q.stable / e.stable;
         let s = &q.at_stable;
@@ -137,7 +139,7 @@ fn quiet(e_s: f64, mu: f64, lambda: f64, e_b: f64) -> Case {
 /// One point of the sweep: `(E_s, cells, mu, lambda, E_b)`.
 type Point = (f64, usize, f64, f64, f64);
 
-fn sweep(n: usize, out: &Path) -> Res {
+fn sweep(n: usize, only: Option<String>, out: &Path) -> Res {
     let mut csv = CsvWriter::create(
         out.join("sweep.csv"),
         &["e_s", "h", "mu", "lambda", "e_b", "dt_quasi", "dt_explicit", "ratio"],
@@ -162,7 +164,12 @@ fn sweep(n: usize, out: &Path) -> Res {
         (100.0, n * 3 / 2, 100.0, 1.0, 1000.0),
     ];
     let mut rows = Vec::new();
-    for (e_s, cells, mu, lambda, e_b) in in_plane.into_iter().chain(bending) {
+    let points: Vec<Point> = match only.as_deref() {
+        Some("in_plane") => in_plane.to_vec(),
+        Some("bending") => bending.to_vec(),
+        _ => in_plane.into_iter().chain(bending).collect(),
+    };
+    for (e_s, cells, mu, lambda, e_b) in points {
         let case = quiet(e_s, mu, lambda, e_b);
         let h = 4.0 / cells as f64;
         let mu_mean = 0.5 * mu * (1.0 + lambda);
@@ -195,6 +202,9 @@ fn sweep(n: usize, out: &Path) -> Res {
             .map(|r| ([r.2, r.1, r.0], [r.0, r.1, r.2, r.3, r.4][pick]))
             .filter(|(_, dt)| *dt > 0.0 && dt.is_finite())
             .collect();
+        if data.len() < 4 {
+            continue;
+        }
         let (c, ex) = fit_power_law(&data);
         result(&[
             ("fit", name.to_string()),
