@@ -121,8 +121,8 @@ fn two_capsules_collide() {
 
 /// The quasi-implicit stress allows at least 3 times the explicit one's step where the membrane
 /// limits (a stiff capsule, `E_s = 1e5`, in slow shear): the explicit stress blows up at
-/// `30 mu h / E_s` (its measured limit is 22.6-27.5), the quasi-implicit one is stable at 3 times
-/// that step; both are stable at their rule's limit.
+/// `30 mu h / E_s` (measured: stable to 20.7-23.6, unstable above), the quasi-implicit one is
+/// stable at 3 times that step; both are stable at their rule's limit.
 #[test]
 fn quasi_implicit_allows_three_times_the_explicit_step() {
     let (n, e_s, mu, shear) = (12, 1e5, 100.0, 0.1);
