@@ -14,7 +14,8 @@ use stability::{Case, Layout, Outcome, build, cases, run};
 
 /// Cells along x of the 4-wide box (`h = 1/4`, capsule radius 4 cells).
 const N: usize = 16;
-/// About a quarter of the advective limit of these cases at `N = 16` (docs/stability.md).
+/// At most 0.4 times the largest stable `dt` of every case over `t = 2` at `N = 16` (0.025 to
+/// 0.038, docs/stability.md; the two-capsule run goes on to `t = 4`, where its limit is 0.0126).
 const DT: f64 = 0.01;
 /// Steps of each case (`t = 2`, the capsules near their steady shapes).
 const STEPS: usize = 200;
