@@ -63,6 +63,7 @@ mod capsule;
 mod forces;
 mod output;
 mod scene;
+pub mod stability;
 
 pub use scene::{MembraneCoupling, Phase, Scene, Settings, SharedLaw, SurfaceForceFn};
 
@@ -110,6 +111,8 @@ pub struct Simulation<T: Real> {
     v_old: Option<VectorField<T>>,
     /// Scratch of [`Simulation::energy`]: the external force on the faces.
     force: Option<VectorField<T>>,
+    /// Whether the `dt` warning of [`stability`] was printed.
+    dt_warned: bool,
 }
 
 impl<T: Real> Simulation<T> {
@@ -153,6 +156,7 @@ impl<T: Real> Simulation<T> {
             surface_force,
             settings,
             force: None,
+            dt_warned: false,
         };
         sim.set_materials()?;
         Ok(sim)
@@ -209,6 +213,7 @@ impl<T: Real> Simulation<T> {
     /// `band`). The state is then exactly as before the call.
     pub fn step(&mut self, dt: T) -> Result<StepReport> {
         positive("dt", dt)?;
+        self.warn_if_above_limit(dt);
         let grid = &self.grid.clone();
         let mut profile_cells = 0;
         // 1-3: per capsule, beside the state.

@@ -1,0 +1,148 @@
+//! Time-step limits of the membrane terms, measured (the paper leaves `dt` to trial and error,
+//! see the remark after (2.40)).
+//!
+//! # The rule
+//!
+//! In the viscous regime of the paper's capsule flows (`Re <= 1`), an in-plane membrane mode of
+//! wavelength `~h` relaxes at the rate `K / (mu h)` (the membrane's stiffest small-strain
+//! modulus `K` over the viscous resistance of the fluid on both sides), and a bending mode at
+//! `E_b / (mu h^3)`. With the stress explicit in time a step must stay below a fixed multiple
+//! of these times. Measured by bisection on a stiff capsule in a slow shear flow
+//! (`examples/stability.rs --mode sweep`, `docs/stability.md`), for `K = E_s` from `2.5e4` to
+//! `4e5`, `h` from `1/6` to `1/3`, `mu` from 25 to 400, `rho = 1`:
+//!
+//! - explicit in-plane stress ([`MembraneCoupling::Explicit`]): blows up above
+//!   `20.7`–`23.6 mu h / K` at every point (18.2 at a viscosity ratio of 5), so the rule is
+//!   `dt <= C_EXPLICIT mu h / K` with [`C_EXPLICIT`];
+//! - quasi-implicit stress (2.32)–(2.35) ([`MembraneCoupling::QuasiImplicit`], the default):
+//!   stable up to `146`–`1024 mu h / K` (the limit falls more slowly than `1 / K`, so its
+//!   ratio to the explicit one grows from 8 to 43 with `K`); rule
+//!   `dt <= C_QUASI_IMPLICIT mu h / K` with [`C_QUASI_IMPLICIT`];
+//! - bending (always explicit): `dt <= C_BENDING mu h^3 / E_b` with [`C_BENDING`] (the strong
+//!   bending case of the suite is stable at `0.50` and unstable at `0.55 mu h^3 / E_b`).
+//!
+//! `mu` is the mean of the inner and outer viscosities, `h` the smallest spacing, `K` the
+//! area-dilation modulus of the law (the larger small-strain modulus, see
+//! [`small_strain_moduli`]; `K = E_s` for [`NeoHookean`](crate::membrane::NeoHookean)).
+//! The constants keep a margin of 1.2–1.7 below the smallest measured limits.
+//!
+//! Two limits are not in this rule: advection (the shear cases of the suite fail near a CFL
+//! number `max|v| dt / h` of 0.35–0.4, whatever the coupling; see
+//! [`StepReport`](super::StepReport)), and the slow accumulation of membrane strain in long
+//! runs on coarse grids (the elastic energy of a tank-treading capsule grows steadily when the
+//! capsule radius is 3–4 cells, and the run eventually fails whatever `dt`): refine the grid.
+//!
+//! [`Simulation::step`] prints one warning to stderr the first time `dt` exceeds
+//! [`Simulation::membrane_dt_limit`].
+
+use super::{MembraneCoupling, Simulation};
+use crate::error::positive;
+use crate::membrane::law::small_strain_moduli;
+use crate::{Real, Result};
+
+/// `C` of the explicit in-plane rule `dt <= C mu h / K` (measured limits 18.2–23.6).
+pub const C_EXPLICIT: f64 = 15.0;
+/// `C` of the quasi-implicit in-plane rule `dt <= C mu h / K` (measured limits 146–1024).
+pub const C_QUASI_IMPLICIT: f64 = 100.0;
+/// `C` of the bending rule `dt <= C mu h^3 / E_b` (measured limit about 0.5).
+pub const C_BENDING: f64 = 0.3;
+
+/// The largest `dt` the in-plane membrane stress allows (see the [module docs](self)):
+/// `C mu h / k` with `C` = [`C_QUASI_IMPLICIT`] or [`C_EXPLICIT`].
+///
+/// `mu`: mean viscosity of the fluids on both sides; `h`: smallest grid spacing; `k`: the
+/// stiffest small-strain modulus of the membrane law.
+///
+/// # Errors
+/// Any argument not finite and `> 0`.
+pub fn membrane_dt_limit(mu: f64, h: f64, k: f64, coupling: MembraneCoupling) -> Result<f64> {
+    positive("mu", mu)?;
+    positive("h", h)?;
+    positive("k", k)?;
+    let c = match coupling {
+        MembraneCoupling::QuasiImplicit => C_QUASI_IMPLICIT,
+        MembraneCoupling::Explicit => C_EXPLICIT,
+    };
+    Ok(c * mu * h / k)
+}
+
+/// The largest `dt` the (explicit) bending force allows: [`C_BENDING`]` mu h^3 / eb`.
+///
+/// # Errors
+/// Any argument not finite and `> 0`.
+pub fn bending_dt_limit(mu: f64, h: f64, eb: f64) -> Result<f64> {
+    positive("mu", mu)?;
+    positive("h", h)?;
+    positive("eb", eb)?;
+    Ok(C_BENDING * mu * h.powi(3) / eb)
+}
+
+impl<T: Real> Simulation<T> {
+    /// The membrane time-step limit of this simulation: the smaller of
+    /// [`membrane_dt_limit`] (with elasticity) and [`bending_dt_limit`] (with bending), with
+    /// the mean of the two viscosities and the smallest spacing; infinite without membrane
+    /// effects.
+    pub fn membrane_dt_limit(&self) -> f64 {
+        let mu = 0.5 * (self.inside.mu + self.outside.mu).f64();
+        let h = self.grid.h().iter().fold(f64::INFINITY, |m, x| m.min(x.f64()));
+        let mut limit = f64::INFINITY;
+        if let Some(law) = &self.law {
+            let (shear, area) = small_strain_moduli(law);
+            let k = shear.max(area).f64();
+            limit = limit.min(membrane_dt_limit(mu, h, k, self.settings.coupling).unwrap_or(f64::INFINITY));
+        }
+        if let Some(b) = self.capsules.first().and_then(|c| c.bending.as_ref()) {
+            limit = limit.min(bending_dt_limit(mu, h, b.eb().f64()).unwrap_or(f64::INFINITY));
+        }
+        limit
+    }
+
+    /// Prints one warning to stderr (once per simulation) when `dt` exceeds
+    /// [`Simulation::membrane_dt_limit`].
+    pub(super) fn warn_if_above_limit(&mut self, dt: T) {
+        if self.dt_warned {
+            return;
+        }
+        let limit = self.membrane_dt_limit();
+        if dt.f64() > limit {
+            self.dt_warned = true;
+            eprintln!(
+                "eulermembrane warning: dt = {:.3e} exceeds the membrane stability limit {limit:.3e} \
+                 (see eulermembrane::simulation::stability); the run may blow up",
+                dt.f64()
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_rule_scales_with_mu_h_over_k_and_quasi_implicit_allows_more() {
+        let base = membrane_dt_limit(100.0, 0.25, 1e5, MembraneCoupling::Explicit).unwrap();
+        assert!((base - C_EXPLICIT * 2.5e-4).abs() < 1e-15);
+        let twice =
+            |mu: f64, h: f64, k: f64| membrane_dt_limit(mu, h, k, MembraneCoupling::Explicit).unwrap();
+        assert!((twice(200.0, 0.25, 1e5) / base - 2.0).abs() < 1e-12);
+        assert!((twice(100.0, 0.5, 1e5) / base - 2.0).abs() < 1e-12);
+        assert!((twice(100.0, 0.25, 5e4) / base - 2.0).abs() < 1e-12);
+        let quasi = membrane_dt_limit(100.0, 0.25, 1e5, MembraneCoupling::QuasiImplicit).unwrap();
+        assert!(quasi >= 3.0 * base, "quasi-implicit {quasi} vs explicit {base}");
+        let bend = bending_dt_limit(100.0, 0.5, 2.0).unwrap();
+        assert!((bend - C_BENDING * 100.0 * 0.125 / 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_rule_refuses_bad_input() {
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(membrane_dt_limit(bad, 0.1, 1.0, MembraneCoupling::Explicit).is_err());
+            assert!(membrane_dt_limit(1.0, bad, 1.0, MembraneCoupling::QuasiImplicit).is_err());
+            assert!(membrane_dt_limit(1.0, 0.1, bad, MembraneCoupling::Explicit).is_err());
+            assert!(bending_dt_limit(bad, 0.1, 1.0).is_err());
+            assert!(bending_dt_limit(1.0, bad, 1.0).is_err());
+            assert!(bending_dt_limit(1.0, 0.1, bad).is_err());
+        }
+    }
+}
