@@ -42,15 +42,22 @@ impl CheckpointWriter {
         Self::default()
     }
 
-    /// Adds an array of values.
+    /// Adds an array of values; an earlier entry of the same name is replaced.
     pub fn array<T: Real>(&mut self, name: &str, data: &[T]) -> &mut Self {
-        self.entries.push((name.to_string(), data.iter().map(|x| x.f64()).collect()));
-        self
+        self.insert(name, data.iter().map(|x| x.f64()).collect())
     }
 
-    /// Adds a single number (integers up to 2^53 are exact).
+    /// Adds a single number (integers up to 2^53 are exact); an earlier entry of the same name
+    /// is replaced.
     pub fn number(&mut self, name: &str, x: f64) -> &mut Self {
-        self.entries.push((name.to_string(), vec![x]));
+        self.insert(name, vec![x])
+    }
+
+    fn insert(&mut self, name: &str, data: Vec<f64>) -> &mut Self {
+        match self.entries.iter_mut().find(|(n, _)| n == name) {
+            Some(entry) => entry.1 = data,
+            None => self.entries.push((name.to_string(), data)),
+        }
         self
     }
 
@@ -180,6 +187,10 @@ mod tests {
         assert!(r.array::<f64>("c", 1).is_err());
         assert!(CheckpointReader::from_bytes(&w.to_bytes()[..20], "mem").is_err());
         assert!(CheckpointReader::from_bytes(b"not a checkpoint", "mem").is_err());
+        // A name written twice keeps the last value, and the file stays readable.
+        w.number("step", 43.0);
+        let r = CheckpointReader::from_bytes(&w.to_bytes(), "mem").unwrap();
+        assert_eq!(r.number("step").unwrap(), 43.0);
     }
 
     #[test]

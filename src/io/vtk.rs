@@ -7,7 +7,7 @@
 
 use super::io_error;
 use crate::grid::{Field, Grid, VectorField, ops::velocity_at_cell};
-use crate::{Real, Result};
+use crate::{Error, Real, Result};
 use std::fs::File;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -17,24 +17,50 @@ use std::sync::atomic::{AtomicU64, Ordering};
 pub struct VtiWriter<'g, T: Real> {
     grid: &'g Grid<T>,
     arrays: Vec<(String, usize, Vec<f64>)>,
+    /// The first array refused (a field of another grid), reported by [`VtiWriter::write`].
+    refused: Option<Error>,
 }
 
 impl<'g, T: Real> VtiWriter<'g, T> {
     /// An empty snapshot of `grid`.
     pub fn new(grid: &'g Grid<T>) -> Self {
-        VtiWriter { grid, arrays: Vec::new() }
+        VtiWriter { grid, arrays: Vec::new(), refused: None }
     }
 
-    /// Adds a cell-centred scalar field.
+    /// Whether a field of `len` values may be added as `name`; if not, the refusal is kept for
+    /// [`write`](Self::write).
+    fn accepts(&mut self, name: &str, len: usize) -> bool {
+        if len == self.grid.len() {
+            return true;
+        }
+        self.refused.get_or_insert_with(|| {
+            Error::invalid(
+                "VtiWriter field",
+                format!("`{name}` with {len} values"),
+                "a field of the writer's grid",
+            )
+        });
+        false
+    }
+
+    /// Adds a cell-centred scalar field. A field of another grid is left out, and
+    /// [`write`](Self::write) then fails.
     pub fn scalar(&mut self, name: &str, f: &Field<T>) -> &mut Self {
+        if !self.accepts(name, f.data.len()) {
+            return self;
+        }
         let g = self.grid;
         let data = g.cells().map(|(i, j, k)| f.data[g.idx_u(i, j, k)].f64()).collect();
         self.arrays.push((name.to_string(), 1, data));
         self
     }
 
-    /// Adds a staggered vector field, averaged to cell centres (ghosts must be filled).
+    /// Adds a staggered vector field, averaged to cell centres (ghosts must be filled). A field
+    /// of another grid is left out, and [`write`](Self::write) then fails.
     pub fn vector(&mut self, name: &str, v: &VectorField<T>) -> &mut Self {
+        if !v.c.iter().all(|c| self.accepts(name, c.data.len())) {
+            return self;
+        }
         let g = self.grid;
         let mut data = Vec::with_capacity(3 * g.cell_count());
         for (i, j, k) in g.cells() {
@@ -87,7 +113,14 @@ impl<'g, T: Real> VtiWriter<'g, T> {
     }
 
     /// Writes the snapshot to `path` (parent folders created).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] if a field of another grid was added (nothing is written);
+    /// [`Error::Io`] naming `path`.
     pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
+        if let Some(e) = &self.refused {
+            return Err(e.clone());
+        }
         write_atomic(path.as_ref(), &self.to_bytes())
     }
 }
