@@ -497,7 +497,7 @@ proptest! {
         refused("EnergyBudget::record", || budget.record(ok));
         prop_assert_eq!(budget.samples().len(), 1);
         let mut pts: Vec<[f64; 2]> =
-            (0..12).map(|i| { let t = i as f64 * 0.5236; [2.0 * t.cos(), t.sin()] }).collect();
+            (0..12).map(|i| { let t = i as f64 * std::f64::consts::FRAC_PI_6; [2.0 * t.cos(), t.sin()] }).collect();
         prop_assert!(fit_ellipse(&pts).is_ok());
         pts[k][k % 2] = nf;
         refused("fit_ellipse", || fit_ellipse(&pts));
