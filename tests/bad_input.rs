@@ -259,7 +259,13 @@ proptest! {
         refused("Advector::new", || Advector::new(&g, params, false));
         let params = AdvectionParams { normals: NormalScheme::Deconvolved, ..AdvectionParams::default() };
         refused("Advector::new", || Advector::new(&g, params, false));
-        prop_assert!(Advector::new(&g, AdvectionParams::default(), true).is_ok());
+        let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+        let (n, mut rhs) = (g.len(), vec![0.0; g.len()]);
+        refused("Advector::restore_history", || adv.restore_history(beta.min(0.0), &rhs, &rhs));
+        refused("Advector::restore_history", || adv.restore_history(1e-3, &rhs[..n - 1], &rhs));
+        rhs[n / 2] = tiny.max(0.5) * f64::INFINITY;
+        refused("Advector::restore_history", || adv.restore_history(1e-3, &vec![0.0; n], &rhs));
+        prop_assert!(adv.history().is_none());
         refused("Geometry::with_beta", || Geometry::new(&g, NormalScheme::Atanh4).with_beta(beta));
         refused("NormalScheme::from_name", || NormalScheme::from_name("sideways"));
     }
