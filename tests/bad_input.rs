@@ -655,6 +655,27 @@ fn a_failed_checkpoint_leaves_the_previous_one_intact() {
     assert!(matches!(sim.checkpoint(&under_file), Err(Error::Io { .. })));
     assert_eq!(std::fs::read(&path).unwrap(), old, "the previous checkpoint changed");
 
+    // A folder without write permission (not a restriction for root: then skipped).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let locked = dir.join("locked");
+        std::fs::create_dir_all(&locked).unwrap();
+        let target = locked.join("state.ckpt");
+        checkpoint_bytes(&sim, &target);
+        let kept = std::fs::read(&target).unwrap();
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+        if std::fs::write(locked.join("probe"), b"x").is_err() {
+            sim.step(1e-3).unwrap();
+            match sim.checkpoint(&target) {
+                Err(Error::Io { path, .. }) => assert!(path.ends_with("state.ckpt"), "{path}"),
+                other => panic!("expected Error::Io, got {other:?}"),
+            }
+            assert_eq!(std::fs::read(&target).unwrap(), kept, "the locked checkpoint changed");
+        }
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+        std::fs::remove_dir_all(&locked).unwrap();
+    }
     // No temporary files are left behind.
     let mut names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
     names.sort();

@@ -19,7 +19,8 @@ const MAGIC: &[u8; 8] = b"EMCKPT02";
 
 /// The checksum of the checkpoint format: FNV-1a (64-bit offset basis and prime) applied to
 /// `bytes` read as little-endian `u64` words (the last one zero-padded), then xored with the
-/// byte count. Any change of a single word, and any change of the length, changes it.
+/// byte count. A change of a single word always changes it (each step is a bijection of the
+/// state), and so does zero padding (through the byte count).
 pub fn checksum(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for chunk in bytes.chunks(8) {
