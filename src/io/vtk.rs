@@ -137,7 +137,7 @@ fn escape(s: &str) -> String {
 /// (a full disk, a folder without write permission, `path` being a folder).
 ///
 /// # Errors
-/// [`Error::Io`](crate::Error::Io) naming `path`, with the operating-system message.
+/// [`Error::Io`] naming `path`, with the operating-system message.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic_with(path, |f| f.write_all(bytes))
 }

@@ -14,7 +14,7 @@ impl<T: Real> Simulation<T> {
     /// capsules together, and per capsule when there are several), the velocity at cell centres,
     /// the pressure, `delta`, and with elasticity the principal tensions `t1`, `t2` and the area
     /// dilation `j_s` on the membrane bands. Pair it with a
-    /// [`PvdSeries`](crate::io::PvdSeries) for a time series.
+    /// [`PvdSeries`](crate::io::vtk::PvdSeries) for a time series.
     pub fn write_vti(&self, path: impl AsRef<Path>) -> Result<()> {
         let g = &self.grid;
         let mut w = VtiWriter::new(g);
