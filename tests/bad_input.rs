@@ -456,6 +456,8 @@ proptest! {
         let mut w = CsvWriter::create(dir.join("c.csv"), &["x", "y"]).unwrap();
         refused("CsvWriter::row", || w.row(&[1.0]));
         prop_assert!(w.row(&[1.0, f64::NAN]).is_ok());
+        drop(w);
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]
@@ -527,6 +529,7 @@ proptest! {
         let mut w = VtiWriter::new(&g);
         w.scalar("phi", &Field::zeros(&g));
         prop_assert!(w.write(dir.join("b.vti")).is_ok());
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
 
