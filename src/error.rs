@@ -43,6 +43,19 @@ pub enum Error {
         /// Interior cell index (i, j, k) of the first non-finite value found.
         cell: [usize; 3],
     },
+    /// A time step of a [`Simulation`](crate::simulation::Simulation) failed; the state is as
+    /// it was before the step. `source` says why (e.g. [`Error::NonFinite`] with the field and
+    /// cell, or [`Error::NoConvergence`]).
+    Step {
+        /// Number of the step that failed (1 for the first step).
+        step: usize,
+        /// Time at the start of the failed step.
+        time: f64,
+        /// The step size that was tried.
+        dt: f64,
+        /// The error that stopped the step.
+        source: Box<Error>,
+    },
     /// Reading or writing a file failed.
     Io {
         /// The path involved.
@@ -74,12 +87,22 @@ impl fmt::Display for Error {
             Error::NonFinite { field, cell } => {
                 write!(f, "non-finite value in field `{field}` at cell {cell:?}; reduce dt")
             }
+            Error::Step { step, time, dt, source } => {
+                write!(f, "step {step} (from t = {time:e} with dt = {dt:e}) failed: {source}")
+            }
             Error::Io { path, message } => write!(f, "I/O error on `{path}`: {message}"),
         }
     }
 }
 
-impl std::error::Error for Error {}
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Error::Step { source, .. } => Some(source.as_ref()),
+            _ => None,
+        }
+    }
+}
 
 /// Result type of the crate.
 pub type Result<T> = std::result::Result<T, Error>;

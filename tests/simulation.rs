@@ -105,7 +105,10 @@ fn a_failed_step_leaves_the_state_as_it_was() {
     assert!(same_state(&a, &b));
     poison.store(true, Ordering::Relaxed);
     let err = a.step(2e-3).unwrap_err();
-    assert!(matches!(err, Error::NonFinite { .. }), "{err}");
+    match &err {
+        Error::Step { step: 4, source, .. } => assert!(matches!(**source, Error::NonFinite { .. }), "{err}"),
+        _ => panic!("expected Error::Step wrapping NonFinite at step 4, got {err}"),
+    }
     assert!(same_state(&a, &b), "the failed step changed the state");
     poison.store(false, Ordering::Relaxed);
     for _ in 0..2 {

@@ -54,8 +54,25 @@ impl<T: Real> Coefficient<T> {
         }
     }
 
-    /// Checks that every interior value is finite and positive.
+    /// Checks that a field coefficient is stored on `grid` and that every interior value is
+    /// finite and positive.
     pub fn validate(&self, grid: &Grid<T>, name: &'static str) -> Result<()> {
+        if let Coefficient::Field(f) = self {
+            if f.data.len() != grid.len() {
+                return Err(Error::invalid(
+                    name,
+                    format!("a field of {} values", f.data.len()),
+                    "a field of the stepper's grid",
+                ));
+            }
+            if let Some(c) = grid.cells().find(|&(i, j, k)| !f.data[grid.idx_u(i, j, k)].is_finite()) {
+                return Err(Error::invalid(
+                    name,
+                    format!("non-finite value at cell {c:?}"),
+                    "finite values > 0",
+                ));
+            }
+        }
         let (lo, hi) = self.range(grid);
         if !(lo.is_finite() && hi.is_finite() && lo > T::zero()) {
             return Err(Error::invalid(
@@ -100,8 +117,16 @@ impl<T: Real> Materials<T> {
     /// The mixture (2.25) of two phases weighted by the VOF function `phi` (1 in phase 1):
     /// `rho = phi rho1 + (1 - phi) rho2`, `mu = phi mu1 + (1 - phi) mu2`. A property that is
     /// equal in both phases stays [`Coefficient::Uniform`] (no field is allocated, and the
-    /// stepper keeps its constant-coefficient paths). Errors: non-positive or non-finite values.
+    /// stepper keeps its constant-coefficient paths). Errors: non-positive or non-finite values,
+    /// `phi` not on `grid`.
     pub fn mixture(grid: &Grid<T>, phi: &Field<T>, phase1: (T, T), phase2: (T, T)) -> Result<Self> {
+        if phi.data.len() != grid.len() {
+            return Err(Error::invalid(
+                "phi",
+                format!("a field of {} values", phi.data.len()),
+                "a field of `grid`",
+            ));
+        }
         let names = [("rho1", "mu1"), ("rho2", "mu2")];
         for ((rho, mu), (rn, mn)) in [phase1, phase2].into_iter().zip(names) {
             crate::error::positive(rn, rho)?;

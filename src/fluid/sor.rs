@@ -34,6 +34,9 @@ impl SorParams {
         if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
             return Err(Error::invalid("SorParams::tolerance", self.tolerance, "a finite number > 0"));
         }
+        if self.max_sweeps == 0 {
+            return Err(Error::invalid("SorParams::max_sweeps", 0, "at least 1 sweep"));
+        }
         Ok(())
     }
 }

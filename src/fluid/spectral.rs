@@ -78,8 +78,11 @@ impl<T: Real> SpectralSolver<T> {
     /// A solver for unknowns at `location` on `grid`.
     ///
     /// Errors: more than one wall axis (the direct solve handles one; use a periodic direction
-    /// or an iterative solver).
+    /// or an iterative solver); a velocity component above 2.
     pub fn new(grid: &Grid<T>, location: Location) -> Result<Self> {
+        if let Location::Velocity(d @ 3..) = location {
+            return Err(Error::invalid("Location::Velocity", d, "a component 0, 1 or 2"));
+        }
         let kinds = location.kinds(grid);
         let walls: Vec<usize> = (0..3).filter(|&a| kinds[a] != AxisKind::Periodic).collect();
         if walls.len() > 1 {

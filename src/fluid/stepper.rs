@@ -204,10 +204,11 @@ impl<T: Real> FlowStepper<T> {
     /// Sets the pressure from `f(x)` at cell centres (e.g. an exact initial pressure). Errors: a
     /// non-finite value.
     pub fn set_pressure(&mut self, f: impl Fn([T; 3]) -> T) -> Result<()> {
-        let p = Field::from_cell_fn(&self.grid, f);
+        let mut p = Field::from_cell_fn(&self.grid, f);
         if let Some(cell) = p.first_non_finite(&self.grid) {
             return Err(Error::NonFinite { field: "pressure", cell });
         }
+        p.fill_ghosts(&self.grid);
         self.p = p;
         Ok(())
     }
@@ -448,6 +449,9 @@ impl<T: Real> FlowStepper<T> {
         par_interior_update(g, &mut self.p.data, |idx, _, _, _, p| p + psi[idx]);
         std::mem::swap(&mut self.adv_prev, &mut ws.adv);
         std::mem::swap(&mut self.vstar_prev, &mut ws.vstar);
+        // Ghosts now, so that a later prepare (even a failing one) leaves the state unchanged.
+        self.p.fill_ghosts(g);
+        self.vstar_prev.fill_ghosts(g);
         self.has_history = true;
         self.time += dt;
         self.step += 1;

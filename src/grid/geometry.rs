@@ -28,9 +28,10 @@ impl<T: Real> Grid<T> {
     /// A grid of `cells` cells over the box `[lower, upper]`, with boundary conditions
     /// `bc[axis] = [lower side, upper side]`.
     ///
-    /// Errors: an axis with fewer than 4 cells (1 cell is allowed on a periodic axis, for 2D), an
-    /// empty or non-finite box, a periodic side paired with a wall, a wall whose velocity has a
-    /// normal component.
+    /// Errors: an axis with fewer than 4 cells (1 cell is allowed on a periodic axis, for 2D), so
+    /// many cells that a field cannot be addressed, an empty or non-finite box (or one so small
+    /// that the spacing underflows), a periodic side paired with a wall, a wall whose velocity
+    /// has a normal component.
     ///
     /// ```
     /// use eulermembrane::grid::{Boundary, Grid};
@@ -67,6 +68,13 @@ impl<T: Real> Grid<T> {
                 ));
             }
             h[d] = len / T::from_usize(cells[d]).unwrap_or(T::one());
+            if !(h[d] > T::zero() && h[d].is_finite()) {
+                return Err(Error::invalid(
+                    ["upper[0] - lower[0]", "upper[1] - lower[1]", "upper[2] - lower[2]"][d],
+                    len,
+                    "a length whose cell spacing is a finite number > 0",
+                ));
+            }
             for side in bc[d] {
                 let v = side.velocity();
                 if !v.iter().all(|x| x.is_finite()) || v[d] != T::zero() {
@@ -78,7 +86,15 @@ impl<T: Real> Grid<T> {
                 }
             }
         }
-        let dims = [cells[0] + 2 * GHOST, cells[1] + 2 * GHOST, cells[2] + 2 * GHOST];
+        let dims = cells.map(|c| c.saturating_add(2 * GHOST));
+        let bytes = dims.iter().try_fold(std::mem::size_of::<T>(), |acc, &d| acc.checked_mul(d));
+        if bytes.is_none_or(|b| b > isize::MAX as usize) {
+            return Err(Error::invalid(
+                "cells",
+                format!("{cells:?}"),
+                "cell counts whose field storage (with ghost layers) is addressable",
+            ));
+        }
         Ok(Grid { n: cells, lower, upper, h, bc, dims })
     }
 

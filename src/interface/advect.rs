@@ -196,7 +196,7 @@ impl<T: Real> Advector<T> {
     }
 
     /// Restores a history saved from [`Advector::history`] (same grid). Errors on a length
-    /// mismatch or a non-positive `dt_prev`.
+    /// mismatch, a non-positive `dt_prev` or a non-finite value; the history is then unchanged.
     pub fn restore_history(&mut self, dt_prev: T, rhs_phi: &[T], rhs_kappa: &[T]) -> Result<()> {
         if rhs_phi.len() != self.rhs_phi.len() || rhs_kappa.len() != self.rhs_kappa.len() {
             return Err(Error::invalid(
@@ -206,6 +206,9 @@ impl<T: Real> Advector<T> {
             ));
         }
         crate::error::positive("dt_prev", dt_prev)?;
+        if let Some(x) = rhs_phi.iter().chain(rhs_kappa).find(|x| !x.is_finite()) {
+            return Err(Error::invalid("history", x, "finite right-hand sides (from Advector::history)"));
+        }
         self.rhs_phi.copy_from_slice(rhs_phi);
         self.rhs_kappa.copy_from_slice(rhs_kappa);
         self.dt_prev = Some(dt_prev);

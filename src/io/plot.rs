@@ -1105,7 +1105,8 @@ fn widen(lo: f64, hi: f64, scale: Scale) -> (f64, f64) {
     let c = 0.5 * (lo + hi);
     let half = match scale {
         Scale::Log10 => 0.5,
-        Scale::Linear if c == 0.0 => 1.0,
+        // Around zero (or a subnormal centre, whose tenth would not widen anything): unit width.
+        Scale::Linear if c.abs() < 1e-290 => 1.0,
         Scale::Linear => 0.1 * c.abs(),
     };
     (c - half, c + half)

@@ -7,32 +7,60 @@
 
 use super::io_error;
 use crate::grid::{Field, Grid, VectorField, ops::velocity_at_cell};
-use crate::{Real, Result};
-use std::io::Write;
+use crate::{Error, Real, Result};
+use std::fs::File;
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// One `.vti` snapshot being assembled: add arrays, then [`VtiWriter::write`].
 pub struct VtiWriter<'g, T: Real> {
     grid: &'g Grid<T>,
     arrays: Vec<(String, usize, Vec<f64>)>,
+    /// The first array refused (a field of another grid), reported by [`VtiWriter::write`].
+    refused: Option<Error>,
 }
 
 impl<'g, T: Real> VtiWriter<'g, T> {
     /// An empty snapshot of `grid`.
     pub fn new(grid: &'g Grid<T>) -> Self {
-        VtiWriter { grid, arrays: Vec::new() }
+        VtiWriter { grid, arrays: Vec::new(), refused: None }
     }
 
-    /// Adds a cell-centred scalar field.
+    /// Whether a field of `len` values may be added as `name`; if not, the refusal is kept for
+    /// [`write`](Self::write).
+    fn accepts(&mut self, name: &str, len: usize) -> bool {
+        if len == self.grid.len() {
+            return true;
+        }
+        self.refused.get_or_insert_with(|| {
+            Error::invalid(
+                "VtiWriter field",
+                format!("`{name}` with {len} values"),
+                "a field of the writer's grid",
+            )
+        });
+        false
+    }
+
+    /// Adds a cell-centred scalar field. A field of another grid is left out, and
+    /// [`write`](Self::write) then fails.
     pub fn scalar(&mut self, name: &str, f: &Field<T>) -> &mut Self {
+        if !self.accepts(name, f.data.len()) {
+            return self;
+        }
         let g = self.grid;
         let data = g.cells().map(|(i, j, k)| f.data[g.idx_u(i, j, k)].f64()).collect();
         self.arrays.push((name.to_string(), 1, data));
         self
     }
 
-    /// Adds a staggered vector field, averaged to cell centres (ghosts must be filled).
+    /// Adds a staggered vector field, averaged to cell centres (ghosts must be filled). A field
+    /// of another grid is left out, and [`write`](Self::write) then fails.
     pub fn vector(&mut self, name: &str, v: &VectorField<T>) -> &mut Self {
+        if !v.c.iter().all(|c| self.accepts(name, c.data.len())) {
+            return self;
+        }
         let g = self.grid;
         let mut data = Vec::with_capacity(3 * g.cell_count());
         for (i, j, k) in g.cells() {
@@ -85,7 +113,14 @@ impl<'g, T: Real> VtiWriter<'g, T> {
     }
 
     /// Writes the snapshot to `path` (parent folders created).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] if a field of another grid was added (nothing is written);
+    /// [`Error::Io`] naming `path`.
     pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
+        if let Some(e) = &self.refused {
+            return Err(e.clone());
+        }
         write_atomic(path.as_ref(), &self.to_bytes())
     }
 }
@@ -96,23 +131,51 @@ fn escape(s: &str) -> String {
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so that
 /// `path` holds either its old contents or the new ones, never a partial file.
+///
+/// The temporary file gets a fresh name (`.<file name>.<process id>.<counter>.tmp`, created
+/// exclusively), is flushed to disk before the rename, and is removed again if anything fails
+/// (a full disk, a folder without write permission, `path` being a folder).
+///
+/// # Errors
+/// [`Error::Io`] naming `path`, with the operating-system message.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+    write_atomic_with(path, |f| f.write_all(bytes))
+}
+
+/// [`write_atomic`] with the contents written by `write` into the temporary file.
+pub(crate) fn write_atomic_with(path: &Path, write: impl FnOnce(&mut File) -> io::Result<()>) -> Result<()> {
+    let name = path.file_name().ok_or_else(|| io_error(path, "not a path to a file"))?;
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+    if let Some(dir) = dir {
         std::fs::create_dir_all(dir).map_err(|e| io_error(dir, e))?;
     }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
+    if path.is_dir() {
+        return Err(io_error(path, "is a directory"));
+    }
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".{}.{}.tmp", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed)));
+    let tmp = dir.map_or_else(|| PathBuf::from(&tmp_name), |d| d.join(&tmp_name));
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
+        let mut f = File::options().write(true).create_new(true).open(&tmp)?;
+        write(&mut f)?;
         f.sync_all()?;
+        drop(f);
         std::fs::rename(&tmp, path)
     })();
-    result.map_err(|e| {
+    if let Err(e) = result {
+        // The temporary file may not exist (creation failed); nothing else to undo.
         let _ = std::fs::remove_file(&tmp);
-        io_error(path, e)
-    })
+        return Err(io_error(path, e));
+    }
+    // Make the rename itself durable. Best effort: the new file is in place either way, and
+    // some file systems refuse to sync a folder.
+    #[cfg(unix)]
+    if let Ok(d) = File::open(dir.unwrap_or(Path::new("."))) {
+        let _ = d.sync_all();
+    }
+    Ok(())
 }
 
 /// A ParaView `.pvd` collection: a time series of snapshot files.
@@ -184,6 +247,31 @@ mod tests {
         let e = s.write(&bad).unwrap_err();
         assert!(e.to_string().contains("b.pvd") || e.to_string().contains("a.pvd"), "{e}");
         assert!(std::fs::read_to_string(&good).unwrap().contains("a_0.vti"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_short_write_keeps_the_old_file_and_leaves_no_temporary() {
+        let dir = std::env::temp_dir().join(format!("em_atomic_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("state.bin");
+        write_atomic(&path, b"old contents").unwrap();
+        // The disk fills up after 5 bytes of the new contents.
+        let e = write_atomic_with(&path, |f| {
+            f.write_all(&b"new contents"[..5])?;
+            Err(io::Error::new(io::ErrorKind::StorageFull, "no space left on device (injected)"))
+        })
+        .unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("state.bin") && msg.contains("no space left"), "{msg}");
+        assert_eq!(std::fs::read(&path).unwrap(), b"old contents");
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names, ["state.bin"], "a temporary file was left behind");
+        // A folder in place of the file is refused, and left alone.
+        let sub = dir.join("sub");
+        std::fs::create_dir(&sub).unwrap();
+        assert!(write_atomic(&sub, b"x").is_err());
+        assert!(sub.is_dir());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -207,13 +207,20 @@ impl<T: Real> Simulation<T> {
     /// Advances one time step of size `dt` (see the [module docs](self) for its parts).
     ///
     /// # Errors
-    /// `dt` not finite and `> 0`; a solver that does not converge
-    /// ([`Error::NoConvergence`]); a non-finite value in any field ([`Error::NonFinite`] with
-    /// the field and cell); a membrane band reaching a wall ([`Error::InvalidParameter`] naming
-    /// `band`). The state is then exactly as before the call.
+    /// [`Error::InvalidParameter`] naming `dt` unless it is finite and `> 0`. A step that
+    /// fails returns [`Error::Step`] with the step number, the time and `dt`, wrapping the
+    /// cause: a solver that does not converge ([`Error::NoConvergence`]); a non-finite value in
+    /// any field ([`Error::NonFinite`] with the field and cell); a membrane band reaching a wall
+    /// ([`Error::Unsupported`]). The state is then exactly as before the call.
     pub fn step(&mut self, dt: T) -> Result<StepReport> {
         positive("dt", dt)?;
         self.warn_if_above_limit(dt);
+        let (step, time) = (self.steps() + 1, self.time().f64());
+        self.advance(dt).map_err(|e| Error::Step { step, time, dt: dt.f64(), source: Box::new(e) })
+    }
+
+    /// The body of [`step`](Self::step), for a valid `dt`.
+    fn advance(&mut self, dt: T) -> Result<StepReport> {
         let grid = &self.grid.clone();
         let mut profile_cells = 0;
         // 1-3: per capsule, beside the state.
@@ -230,7 +237,7 @@ impl<T: Real> Simulation<T> {
         }
         // 4-5: materials and the flow step.
         self.update_materials(true);
-        let flow_info = {
+        let flow_info = (|| {
             let caps = &self.capsules;
             let mut implicit = Vec::new();
             let mut forcings: Vec<&dyn Forcing<T>> = vec![&self.body_force];
@@ -261,7 +268,7 @@ impl<T: Real> Simulation<T> {
             let implicit = SumImplicit(implicit);
             let extra = (!implicit.0.is_empty()).then_some(&implicit as &dyn ImplicitTerm<T>);
             self.flow.prepare(dt, &SumForcing(forcings), extra)
-        };
+        })();
         let flow_info = match flow_info {
             Ok(i) => i,
             Err(e) => return Err(self.abandon(e)),
