@@ -14,8 +14,10 @@
 //!   tolerance 1e-6), shear capsule at `--study-n`.
 //! - `beta_epsilon`: MTHINC `beta` for the vortex (N = 64) and the capsule (also the initial
 //!   smoothing's), and the `epsilon` of the `G_s` re-set, capsule at `--study-n`.
+//! - `fast`: the capsule at N = 16 ... 64 (up to `--max-n`) with the cheap settings the other
+//!   studies found harmless: `dt = 0.512 / N` and Krylov tolerance 1e-3, with `beta = 1` and 2.
 //! - `quick`: the vortex at N = 32, 64 and the capsule at N = 24, 32 in f64 and at N = 24 in
-//!   f32 (about 5 minutes on an unloaded 2-core machine).
+//!   f32 (about 15 CPU seconds).
 //!
 //! The shear error is `|<D>_w - <D_ref>_w| / <D_ref>_w`, the means over the window
 //! `t in [2, 3]` (runs end at `t = 3`) of the present `D(t)` and of the boundary-element curve of
@@ -60,7 +62,7 @@ const CA: f64 = 0.05;
 const WINDOW: (f64, f64) = (2.0, 3.0);
 /// Targets of the recommendation table (relative error of the windowed `D`).
 const TARGETS: [f64; 4] = [0.2, 0.1, 0.05, 0.02];
-const STUDIES: [&str; 6] = ["vortex", "shear_n", "shear_dt", "precision", "solver", "beta_epsilon"];
+const STUDIES: [&str; 7] = ["vortex", "shear_n", "shear_dt", "precision", "solver", "beta_epsilon", "fast"];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Precision {
@@ -343,6 +345,19 @@ fn jobs(study: &str, o: &Opts) -> Vec<Job> {
             }
             for epsilon in [1e-3, 1e-2, 1e-1] {
                 v.push(Job::Shear(ShearJob { epsilon, ..b.clone() }));
+            }
+        }
+        "fast" => {
+            for beta in [1.0, 2.0] {
+                for n in ns(&[16, 24, 32, 48, 64], o.max_n) {
+                    let dt = 0.512 / n as f64;
+                    v.push(Job::Shear(ShearJob {
+                        dt,
+                        solver: Solver::Krylov(1e-3),
+                        beta,
+                        ..ShearJob::base(n)
+                    }));
+                }
             }
         }
         _ => {
@@ -645,6 +660,7 @@ fn shear_table(out: &Path, name: &str, list: &[Job], done: &HashMap<String, Meas
             "shear_dt" => format!("N = {}", s.n),
             "precision" => format!("{:?}, tol {tol:.0e}", s.precision),
             "solver" => (if sor > 0.0 { "SOR" } else { "Krylov" }).to_string(),
+            "fast" => format!("dt = 0.512 / N, Krylov 1e-3, beta = {}", s.beta),
             "beta_epsilon" if s.epsilon != 0.01 => "epsilon".to_string(),
             "beta_epsilon" if s.beta != 1.0 => "beta".to_string(),
             _ => "runs".to_string(),
