@@ -14,7 +14,7 @@
 //!   tolerance 1e-6), shear capsule at `--study-n`.
 //! - `beta_epsilon`: MTHINC `beta` for the vortex (N = 64) and the capsule (also the initial
 //!   smoothing's), and the `epsilon` of the `G_s` re-set, capsule at `--study-n`.
-//! - `fast`: the capsule at N = 16 ... 64 (up to `--max-n`) with the cheap settings the other
+//! - `fast`: the capsule at N = 16 ... 96 (up to `--max-n`) with the cheap settings the other
 //!   studies found harmless: `dt = 0.512 / N` and Krylov tolerance 1e-3, with `beta = 1` and 2.
 //! - `quick`: the vortex at N = 32, 64 and the capsule at N = 24, 32 in f64 and at N = 24 in
 //!   f32 (about 15 CPU seconds).
@@ -349,7 +349,7 @@ fn jobs(study: &str, o: &Opts) -> Vec<Job> {
         }
         "fast" => {
             for beta in [1.0, 2.0] {
-                for n in ns(&[16, 24, 32, 48, 64], o.max_n) {
+                for n in ns(&[16, 24, 32, 48, 64, 96], o.max_n) {
                     let dt = 0.512 / n as f64;
                     v.push(Job::Shear(ShearJob {
                         dt,
