@@ -14,15 +14,16 @@
 //! `--normals youngs|central_phi|atanh2|atanh4` (default youngs, the paper's),
 //! `--quadrature exact|gauss2`, `--beta B`, `--cfl C`, `--tiny E` (uniform-cell threshold), `--out DIR` (default
 //! `out/single_vortex`; SVG contour plots of Fig. 3 and curvature profiles of Fig. 4),
-//! `--no-plots`.
+//! `--no-plots`. The run itself is `examples/common/vortex.rs`.
 //!
 //! Run: `cargo run --release --example single_vortex -- --n 128`.
 
-use eulermembrane::grid::{Field, Grid, VectorField};
-use eulermembrane::interface::shapes::{Ellipse, Smoothing, smoothed_fields};
-use eulermembrane::interface::{AdvectionParams, Advector, CellQuadrature, NormalScheme};
+mod common;
+
+use common::vortex::{self, Snap, VortexCase};
+use eulermembrane::grid::{Field, Grid};
+use eulermembrane::interface::{CellQuadrature, NormalScheme};
 use eulermembrane::io::plot::{Figure, LineStyle, Panels, contour_segments};
-use std::f64::consts::PI;
 use std::fmt::Write as _;
 
 /// The paper's Table 1: (N, L1, L2, Linf) of phi and of kappa_R delta_bar.
@@ -109,20 +110,6 @@ fn parse() -> Result<Opts, String> {
     Ok(o)
 }
 
-/// Errors (3.1): L1, L2, Linf.
-fn norms(g: &Grid<f64>, a: &Field<f64>, b: &Field<f64>, scale: f64) -> [f64; 3] {
-    let (mut l1, mut l2, mut li) = (0.0, 0.0, 0.0f64);
-    for (i, j, k) in g.cells() {
-        let id = g.idx_u(i, j, k);
-        let e = ((a.data[id] - b.data[id]) * scale).abs();
-        l1 += e;
-        l2 += e * e;
-        li = li.max(e);
-    }
-    let m = g.cell_count() as f64;
-    [l1 / m, (l2 / m).sqrt(), li]
-}
-
 struct Run {
     n: usize,
     phi: [f64; 3],
@@ -133,71 +120,20 @@ struct Run {
 }
 
 fn run(n: usize, o: &Opts) -> Result<Run, Box<dyn std::error::Error>> {
-    let h = 1.0 / n as f64;
-    let g = Grid::<f64>::periodic([n, n, 1], [0.0; 3], [1.0, 1.0, h])?;
-    let a = 0.15;
-    let ellipse = Ellipse::new([0.5, 0.75], [a, 0.7 * a])?;
-    let smoothing = Smoothing { beta: o.beta, points: 4 };
-    let (phi0, kt0) = smoothed_fields(&g, &ellipse, &smoothing)?;
-    let (mut phi, mut kt) = (phi0.clone(), kt0.clone());
-
-    // Stream function at nodes (x_i, y_j) = (i h, j h); face velocities are its differences.
-    let v0 = VectorField::from_stream_function(&g, |x| {
-        let s = if o.sin { (PI * x[1]).sin().powi(2) } else { (PI * x[1]).cos().powi(2) };
-        (PI * x[0]).sin().powi(2) * s / PI
-    });
-    let umax = v0.c[0].data.iter().chain(&v0.c[1].data).fold(0.0f64, |m, x| m.max(x.abs()));
-    let t_end = 1.0;
-    let steps = (t_end * umax / (o.cfl * h)).ceil() as usize;
-    let dt = t_end / steps as f64;
-
-    let params = AdvectionParams { beta: o.beta, normals: o.normals, quadrature: o.quadrature, tiny: o.tiny };
-    let mut adv = Advector::new(&g, params, true)?;
-    let mut v = v0.clone();
-    let mass0 = phi0.interior_sum(&g);
-    let mut snaps = vec![(0.0, phi0.clone(), kt0.clone())];
-    let t0 = std::time::Instant::now();
-    for s in 0..steps {
-        let t = s as f64 * dt;
-        let c = (PI * t / t_end).cos();
-        for d in 0..2 {
-            for (x, y) in v.c[d].data.iter_mut().zip(&v0.c[d].data) {
-                *x = c * y;
-            }
-        }
-        adv.step(&g, &v, dt, &mut phi, Some(&mut kt))?;
-        if 2 * (s + 1) == steps {
-            snaps.push((0.5 * t_end, phi.clone(), kt.clone()));
-        }
-        if (s + 1) % (steps / 4).max(1) == 0 {
-            eprintln!(
-                "n={n} step {}/{steps} t={:.3} dt={dt:.3e} mass_drift={:.2e} ({:.1} s)",
-                s + 1,
-                (s + 1) as f64 * dt,
-                ((phi.interior_sum(&g) - mass0) / mass0).abs(),
-                t0.elapsed().as_secs_f64()
-            );
-        }
-    }
-    snaps.push((t_end, phi.clone(), kt.clone()));
-    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (i, j, k) in g.cells() {
-        let x = phi.data[g.idx_u(i, j, k)];
-        min = min.min(x);
-        max = max.max(x);
-    }
-    let r = Run {
+    let case = VortexCase {
         n,
-        phi: norms(&g, &phi, &phi0, 1.0),
-        kappa: norms(&g, &kt, &kt0, h),
-        drift: ((phi.interior_sum(&g) - mass0) / mass0).abs(),
-        min,
-        max,
+        sin: o.sin,
+        normals: o.normals,
+        quadrature: o.quadrature,
+        beta: o.beta,
+        cfl: o.cfl,
+        tiny: Some(o.tiny),
     };
+    let r = vortex::run::<f64>(&case, o.plots, false)?;
     if o.plots {
-        plots(&g, &snaps, o, n)?;
+        plots(&r.grid, &r.snaps, o, n)?;
     }
-    Ok(r)
+    Ok(Run { n, phi: r.phi, kappa: r.kappa, drift: r.drift, min: r.min, max: r.max })
 }
 
 fn main() {
@@ -276,8 +212,6 @@ fn print_table(runs: &[Run], o: &Opts) {
 // ---------------------------------------------------------------------------------------------
 // Plots (Figs. 3 and 4) with `eulermembrane::io::plot`.
 
-type Snap = (f64, Field<f64>, Field<f64>);
-
 /// Contour segments of a cell-centred 2D field at `level` (marching squares on cell centres).
 fn contour(g: &Grid<f64>, f: &Field<f64>, level: f64) -> Vec<[(f64, f64); 2]> {
     let [nx, ny, _] = g.n();
@@ -286,7 +220,7 @@ fn contour(g: &Grid<f64>, f: &Field<f64>, level: f64) -> Vec<[(f64, f64); 2]> {
     contour_segments(nx, ny, 0.5 * h[0], 0.5 * h[1], h[0], h[1], &values, level)
 }
 
-fn plots(g: &Grid<f64>, snaps: &[Snap], o: &Opts, n: usize) -> eulermembrane::Result<()> {
+fn plots(g: &Grid<f64>, snaps: &[Snap<f64>], o: &Opts, n: usize) -> eulermembrane::Result<()> {
     let dir = std::path::Path::new(&o.out);
     // Fig. 3: contours phi = 0.05, 0.5, 0.95 at t = 0, T/2, T.
     let mut panels = Panels::new(3);

@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 pub mod shear;
+pub mod vortex;
 
 /// Command-line flags `--key value` and bare `--flag`.
 pub struct Args {
@@ -112,4 +113,16 @@ pub fn read_points(path: &Path) -> Result<Vec<(f64, f64)>, Box<dyn std::error::E
         }
     }
     Ok(pts)
+}
+
+/// CPU seconds (user + system) the calling thread has used, from `/proc/thread-self/stat`
+/// (Linux; NaN elsewhere). Inside a one-thread rayon pool every parallel loop of the library
+/// runs on that thread, so differences measure a run's cost independently of the machine's load.
+pub fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/thread-self/stat").unwrap_or_default();
+    // Fields after the parenthesised command name start at field 3 (state); utime and stime
+    // are fields 14 and 15, in clock ticks of 1/100 s.
+    let fields: Vec<&str> = stat.rsplit_once(')').map_or(vec![], |(_, r)| r.split_whitespace().collect());
+    let tick = |k: usize| fields.get(k).and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    (tick(11) + tick(12)) / 100.0
 }

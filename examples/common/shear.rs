@@ -92,6 +92,8 @@ pub struct ShearOutcome {
     pub max_volume_drift: f64,
     /// Wall-clock seconds of the time loop.
     pub wall_s: f64,
+    /// CPU seconds of the time loop on the calling thread (see [`super::cpu_seconds`]).
+    pub cpu_s: f64,
     /// Steps taken.
     pub steps: usize,
 }
@@ -144,6 +146,7 @@ pub fn run<T: Real>(
     let mut next_vtk = 0.0;
     let mut max_drift = 0.0f64;
     let clock = Instant::now();
+    let cpu0 = super::cpu_seconds();
     let mut iterations = 0;
     for s in 0..=steps {
         if s > 0 {
@@ -185,7 +188,7 @@ pub fn run<T: Real>(
             );
         }
     }
-    let wall_s = clock.elapsed().as_secs_f64();
+    let (wall_s, cpu_s) = (clock.elapsed().as_secs_f64(), super::cpu_seconds() - cpu0);
     if let Some((dir, every_t)) = vtk
         && every_t > 0.0
     {
@@ -199,6 +202,7 @@ pub fn run<T: Real>(
         angle_steady: mean(|s| s.angle_deg),
         max_volume_drift: max_drift,
         wall_s,
+        cpu_s,
         steps,
         samples,
     })
