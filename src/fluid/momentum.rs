@@ -361,6 +361,24 @@ pub struct Predictor<'a, T: Real> {
 }
 
 impl<'a, T: Real> Predictor<'a, T> {
+    /// The operator of (2.35) for the step `dt` with `materials` (ghosts filled) and an optional
+    /// extra implicit term, for use with [`LinOp::apply`] and the Krylov solvers. A variable
+    /// viscosity is averaged to the cell edges on the fly (the stepper keeps edge fields).
+    pub fn new(
+        grid: &'a Grid<T>,
+        dt: T,
+        materials: &'a Materials<T>,
+        extra: Option<&'a dyn ImplicitTerm<T>>,
+    ) -> Self {
+        Predictor {
+            grid,
+            inv_dt: T::one() / dt,
+            rho: &materials.rho,
+            mu: ViscosityView::new(grid, &materials.mu, None),
+            extra,
+        }
+    }
+
     /// `(P x)_c` at face `idx` without the extra terms, with the ghosts of `x` as they are.
     #[inline(always)]
     fn base_at(&self, x: &VectorField<T>, c: usize, idx: usize, wall: bool) -> T {
