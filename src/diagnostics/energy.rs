@@ -84,9 +84,9 @@ pub enum DissipationForm {
     Discrete,
 }
 
-/// Viscous dissipation rate `Phi = sum mu grad v : grad v dV` (or `sum 2 mu D : D dV`, see
-/// [`DissipationForm`]), with `grad v` from [`grad_v_at_cell`] (one ghost layer of `v` filled)
-/// and `mu` uniform or per cell.
+/// Viscous dissipation rate `Phi = sum mu grad v : grad v dV` (or `sum 2 mu D : D dV`, or minus
+/// the power of the stepper's viscous operator, see [`DissipationForm`]), with `grad v` from
+/// [`grad_v_at_cell`] (one ghost layer of `v` filled) and `mu` uniform or per cell.
 ///
 /// Errors: a field not on `grid`; a non-finite value.
 pub fn viscous_dissipation<T: Real>(
@@ -97,31 +97,25 @@ pub fn viscous_dissipation<T: Real>(
 ) -> Result<f64> {
     check_vector(grid, "v", v)?;
     check_coefficient(grid, "mu", mu)?;
-    if form == DissipationForm::Discrete {
-        let view = ViscosityView::new(grid, mu, None);
-        let s = sum_cells(grid, |idx, ijk| {
+    let view = ViscosityView::new(grid, mu, None);
+    let s = sum_cells(grid, |idx, ijk| {
+        if form == DissipationForm::Discrete {
             let power = (0..3)
                 .filter(|&c| !is_wall_face(grid, c, ijk))
                 .map(|c| v.c[c].data[idx].f64() * viscous_at(grid, &view, v, c, idx).f64())
                 .sum::<f64>();
-            [-power]
-        });
-        let [s] = finite_or(s, grid, &with_coefficient(velocity_fields(v).to_vec(), "mu", mu))?;
-        return Ok(s * grid.cell_volume().f64());
-    }
-    let s = sum_cells(grid, |idx, _| {
+            return [-power];
+        }
         let g = grad_v_at_cell(grid, v, idx);
         let mut c = 0.0;
         for i in 0..3 {
             for j in 0..3 {
                 let gij = g[i][j].f64();
-                c += match form {
-                    DissipationForm::GradGrad => gij * gij,
-                    DissipationForm::StrainRate => {
-                        let d = 0.5 * (gij + g[j][i].f64());
-                        2.0 * d * d
-                    }
-                    DissipationForm::Discrete => unreachable!("handled above"),
+                c += if form == DissipationForm::GradGrad {
+                    gij * gij
+                } else {
+                    let d = 0.5 * (gij + g[j][i].f64());
+                    2.0 * d * d
                 };
             }
         }
