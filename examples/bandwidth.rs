@@ -11,16 +11,6 @@ mod common;
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// On-CPU time of all threads of the process in seconds (`/proc/self/task/*/schedstat`, Linux).
-fn cpu_seconds() -> f64 {
-    let tasks = std::fs::read_dir("/proc/self/task").expect("/proc/self/task (Linux only)");
-    let ns: u64 = tasks
-        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum();
-    ns as f64 * 1e-9
-}
-
 fn main() {
     let args = common::Args::parse();
     let mb: usize = args.get("mb", 128);
@@ -36,7 +26,7 @@ fn main() {
         for (name, arrays) in [("copy", 2.0), ("triad", 3.0)] {
             let (mut rates, mut cpu_rates): (Vec<f64>, Vec<f64>) = (0..reps)
                 .map(|_| {
-                    let (t0, c0) = (Instant::now(), cpu_seconds());
+                    let (t0, c0) = (Instant::now(), common::process_cpu_seconds());
                     pool.install(|| {
                         let it = a.par_chunks_mut(chunk).zip(b.par_chunks(chunk)).zip(c.par_chunks(chunk));
                         if name == "copy" {
@@ -50,7 +40,7 @@ fn main() {
                         }
                     });
                     let bytes = arrays * 8.0 * len as f64;
-                    let cpu = (cpu_seconds() - c0) / threads as f64;
+                    let cpu = (common::process_cpu_seconds() - c0) / threads as f64;
                     (bytes / t0.elapsed().as_secs_f64() / 1e9, bytes / cpu / 1e9)
                 })
                 .unzip();

@@ -15,16 +15,6 @@ use eulermembrane::membrane::Skalak;
 use eulermembrane::simulation::{Phase, Scene};
 use std::time::Instant;
 
-/// On-CPU time of all threads of the process in seconds (`/proc/self/task/*/schedstat`, Linux).
-fn cpu_seconds() -> f64 {
-    let tasks = std::fs::read_dir("/proc/self/task").expect("/proc/self/task (Linux only)");
-    let ns: u64 = tasks
-        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum();
-    ns as f64 * 1e-9
-}
-
 fn report(n: usize, steps: usize, wall: f64, cpu: f64, extra: &str) {
     let (secs, cpu) = (wall / steps as f64, cpu / steps as f64);
     let cells = (n * n * n) as f64;
@@ -54,13 +44,13 @@ fn flow(n: usize, steps: usize) {
         [2.0 * x[2] - 1.0 + 0.1 * (6.0 * x[1]).sin(), 0.1 * (6.0 * x[0]).sin(), 0.0]
     })
     .unwrap();
-    let (t0, c0) = (Instant::now(), cpu_seconds());
+    let (t0, c0) = (Instant::now(), common::process_cpu_seconds());
     let mut iters = 0;
     for _ in 0..steps {
         iters += s.step(dt, &(), None).unwrap().predictor_iterations;
     }
     let its = format!(", {:.1} BiCGStab its/step", iters as f64 / steps as f64);
-    report(n, steps, t0.elapsed().as_secs_f64(), cpu_seconds() - c0, &its);
+    report(n, steps, t0.elapsed().as_secs_f64(), common::process_cpu_seconds() - c0, &its);
 }
 
 fn coupled<T: Real>(n: usize, steps: usize, scene: &str) {
@@ -81,12 +71,18 @@ fn coupled<T: Real>(n: usize, steps: usize, scene: &str) {
     })
     .unwrap();
     let dt = lit(1e-3);
-    let (t0, c0) = (Instant::now(), cpu_seconds());
+    let (t0, c0) = (Instant::now(), common::process_cpu_seconds());
     let mut band = 0;
     for _ in 0..steps {
         band = sim.step(dt).unwrap().band_cells;
     }
-    report(n, steps, t0.elapsed().as_secs_f64(), cpu_seconds() - c0, &format!(", {band} band cells"));
+    report(
+        n,
+        steps,
+        t0.elapsed().as_secs_f64(),
+        common::process_cpu_seconds() - c0,
+        &format!(", {band} band cells"),
+    );
 }
 
 fn main() {

@@ -102,17 +102,6 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
     s.elasticity(Skalak::new(p.es, p.alpha)?).bending(p.eb).body_force([1.0, 0.0, 0.0]).build()
 }
 
-/// Prints progress every 5 %.
-fn progress(s: usize, steps: usize, t: f64, clock: &Instant, extra: &str) {
-    if s % (steps / 20).max(1) == 0 || s == steps {
-        let el = clock.elapsed().as_secs_f64();
-        eprintln!(
-            "  step {s}/{steps} t={t:.3} {extra} ({el:.0} s, ~{:.0} s left)",
-            el * (steps - s) as f64 / s as f64
-        );
-    }
-}
-
 fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], out: &Path) -> BoxResult<()> {
     let steps = (t_end / dt).round() as usize;
     let mut fig =
@@ -158,7 +147,7 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], out: &Path) -> BoxResul
             s37.push(rel);
             sdelta.push(rel_delta);
             csv.row(&[sim.time(), rel, rel_delta, drift])?;
-            progress(s, steps, sim.time(), &clock, &format!("s/s0={rel:.4}"));
+            common::progress(s, steps, sim.time(), &clock, &format!("s/s0={rel:.4}"));
         }
         csv.finish()?;
         fig.line(&t, &s37, &format!("alpha = {alpha}, (3.7)"));
@@ -255,7 +244,7 @@ fn two(
     for s in 0..=steps {
         if s > 0 {
             sim.step(dt)?;
-            progress(s, steps, sim.time(), &clock, &format!("x1={:.3}", sim.centroid(0)?[0]));
+            common::progress(s, steps, sim.time(), &clock, &format!("x1={:.3}", sim.centroid(0)?[0]));
         }
         let t = sim.time();
         for (c, v) in v0.iter().enumerate() {
@@ -340,7 +329,7 @@ fn many(n: usize, dt: f64, t_end: f64, cells: usize, vtk_every: f64, out: &Path)
     for s in 0..=steps {
         if s > 0 {
             sim.step(dt)?;
-            progress(s, steps, sim.time(), &clock, "");
+            common::progress(s, steps, sim.time(), &clock, "");
         }
         if vtk_every > 0.0 && sim.time() >= next_vtk - 1e-9 {
             let name = format!("many_{s:06}.vti");

@@ -115,6 +115,17 @@ pub fn read_points(path: &Path) -> Result<Vec<(f64, f64)>, Box<dyn std::error::E
     Ok(pts)
 }
 
+/// On-CPU time of all threads of the process in seconds (`/proc/self/task/*/schedstat`, Linux;
+/// panics elsewhere). Unlike [`cpu_seconds`] it counts every rayon worker.
+pub fn process_cpu_seconds() -> f64 {
+    let tasks = std::fs::read_dir("/proc/self/task").expect("/proc/self/task (Linux only)");
+    let ns: u64 = tasks
+        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .sum();
+    ns as f64 * 1e-9
+}
+
 /// CPU seconds (user + system) the calling thread has used, from `/proc/thread-self/stat`
 /// (Linux; NaN elsewhere). Inside a one-thread rayon pool every parallel loop of the library
 /// runs on that thread, so differences measure a run's cost independently of the machine's load.
@@ -125,4 +136,16 @@ pub fn cpu_seconds() -> f64 {
     let fields: Vec<&str> = stat.rsplit_once(')').map_or(vec![], |(_, r)| r.split_whitespace().collect());
     let tick = |k: usize| fields.get(k).and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
     (tick(11) + tick(12)) / 100.0
+}
+
+/// Prints a progress line of a run of `steps` steps to stderr every 5 % (and at the last step):
+/// step, time, `extra`, elapsed and remaining wall time.
+pub fn progress(s: usize, steps: usize, t: f64, clock: &std::time::Instant, extra: &str) {
+    if s % (steps / 20).max(1) == 0 || s == steps {
+        let el = clock.elapsed().as_secs_f64();
+        eprintln!(
+            "  step {s}/{steps} t={t:.3} {extra} ({el:.0} s, ~{:.0} s left)",
+            el * (steps - s) as f64 / s as f64
+        );
+    }
 }

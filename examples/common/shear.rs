@@ -176,16 +176,13 @@ pub fn run<T: Real>(
             pvd.push(t, name);
             next_vtk += every_t;
         }
-        if !quiet && s > 0 && (s % (steps / 20).max(1) == 0 || s == steps) {
+        if !quiet && s > 0 {
             let last = samples.last().expect("sampled at step 0");
-            let el = clock.elapsed().as_secs_f64();
-            eprintln!(
-                "  step {s}/{steps} t={t:.2} D={:.4} angle={:.1} area={:.4} iters={iterations} ({el:.0} s, ~{:.0} s left)",
-                last.d,
-                last.angle_deg,
-                last.area_ratio,
-                el * (steps - s) as f64 / s as f64
+            let extra = format!(
+                "D={:.4} angle={:.1} area={:.4} iters={iterations}",
+                last.d, last.angle_deg, last.area_ratio
             );
+            super::progress(s, steps, t, &clock, &extra);
         }
     }
     let (wall_s, cpu_s) = (clock.elapsed().as_secs_f64(), super::cpu_seconds() - cpu0);
