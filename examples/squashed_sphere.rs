@@ -16,7 +16,8 @@
 //! coarsest grid, N = 16, puts the capsule (1.6 cells in radius) within two cells of the walls,
 //! closer than the library allows.
 //!
-//! Flags: `--n N` (64), `--dt` (`0.02 (16/N)^2`), `--t-end T` (2), `--gamma G` (4), `--vtk-every S` (0.25, in time units;
+//! Flags: `--n N` (64), `--dt` (`0.02 (16/N)^2`), `--t-end T` (2), `--gamma G` (4), `--epsilon E`
+//! (0.01, the membrane band `delta h >= E`), `--vtk-every S` (0.25, in time units;
 //! 0 for none), `--convergence`, `--max-n N` (64), `--out DIR` (`out/squashed_sphere`).
 //!
 //! Run: `cargo run --release --example squashed_sphere -- --n 64`.
@@ -31,7 +32,7 @@ use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::io::plot::{Figure, Panels, contour_segments};
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::{Phase, Scene, Simulation};
+use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
 use std::time::Instant;
 
 const RADIUS: f64 = 0.1;
@@ -55,11 +56,12 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let t_end: f64 = args.get("t-end", 2.0);
     let vtk_every: f64 = args.get("vtk-every", 0.25);
     let dt: f64 = args.get("dt", dt_of(n));
-    history(n, dt, t_end, gamma, vtk_every, &out)
+    let epsilon: f64 = args.get("epsilon", 0.01);
+    history(n, dt, t_end, gamma, epsilon, vtk_every, &out)
 }
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.
-fn build(n: usize, gamma: f64) -> eulermembrane::Result<Simulation<f64>> {
+fn build(n: usize, gamma: f64, epsilon: f64) -> eulermembrane::Result<Simulation<f64>> {
     if n < 8 || n % 2 != 0 {
         return Err(eulermembrane::Error::invalid("--n", n, "an even number of cells >= 8"));
     }
@@ -74,6 +76,7 @@ fn build(n: usize, gamma: f64) -> eulermembrane::Result<Simulation<f64>> {
                 if t <= T_FORCE { [0.0, 0.0, -(x[2] - 0.25).signum() * gamma] } else { [0.0; 3] }
             },
         )
+        .settings(Settings { epsilon, ..Settings::default() })
         .build()
 }
 
@@ -91,14 +94,16 @@ fn history(
     dt: f64,
     t_end: f64,
     gamma: f64,
+    epsilon: f64,
     vtk_every: f64,
     out: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let mut sim = build(n, gamma)?;
+    let mut sim = build(n, gamma, epsilon)?;
     let steps = (t_end / dt).round() as usize;
     let g = sim.grid().clone();
     eprintln!("squashed_sphere: {:?} cells, dt = {dt:.3e}, {steps} steps to t = {t_end}", g.n());
     let v0 = sim.volume(0)?;
+    sim.track_energy();
     let mut budget = EnergyBudget::new();
     budget.record(sim.energy()?)?;
     let mut csv = CsvWriter::create(
@@ -112,6 +117,7 @@ fn history(
             "total",
             "volume_drift",
             "area",
+            "reference_area",
             "r00",
             "r20",
             "r40",
@@ -163,6 +169,7 @@ fn history(
             e.total,
             drift,
             sim.area(0)?,
+            sim.reference_area(0)?.unwrap_or(f64::NAN),
             modes[0],
             modes[1],
             modes[2],
@@ -365,7 +372,7 @@ fn convergence(args: &Args, gamma: f64, out: &std::path::Path) -> Result<(), Box
     let mut sims = Vec::new();
     for &n in &ns {
         let clock = Instant::now();
-        let mut sim = build(n, gamma)?;
+        let mut sim = build(n, gamma, 0.01)?;
         let dt = dt_of(n);
         let steps = (t_end / dt).round() as usize;
         for _ in 0..steps {

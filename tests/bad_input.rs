@@ -496,11 +496,11 @@ proptest! {
         prop_assert_eq!(param_name(&refused("equibiaxial_tension", || membrane::equibiaxial_tension(&law, bad))), "lambda");
         refused("equibiaxial_stretch", || membrane::equibiaxial_stretch(&law, nf));
         let mut budget = EnergyBudget::new();
-        let ok = EnergyState { time: 0.0, kinetic: 1.0, elastic: 0.0, dissipation_rate: 0.0, body_power: 0.0 };
+        let ok = EnergyState { time: 0.0, kinetic: 1.0, elastic: 0.0, dissipation_rate: 0.0, body_power: 0.0, integrals: None };
         budget.record(ok).unwrap();
         let mut vals = [1.0, 1.0, 0.0, 0.0, 0.0];
         vals[k] = nf;
-        let st = EnergyState { time: vals[0], kinetic: vals[1], elastic: vals[2], dissipation_rate: vals[3], body_power: vals[4] };
+        let st = EnergyState { time: vals[0], kinetic: vals[1], elastic: vals[2], dissipation_rate: vals[3], body_power: vals[4], integrals: None };
         refused("EnergyBudget::record", || budget.record(st));
         refused("EnergyBudget::record", || budget.record(ok));
         prop_assert_eq!(budget.samples().len(), 1);

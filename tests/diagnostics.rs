@@ -471,6 +471,27 @@ fn energy_budget_of_a_decaying_taylor_green_vortex_closes() {
     assert_eq!(budget.samples().len(), 101);
 }
 
+/// With step integrals the budget takes their differences, not the trapezoid of the rates.
+#[test]
+fn budget_uses_step_integrals_when_given() {
+    use eulermembrane::diagnostics::StepIntegrals;
+    let mut budget = EnergyBudget::new();
+    let state = |t: f64, d: f64, w: f64| EnergyState {
+        time: t,
+        kinetic: 1.0,
+        dissipation_rate: 100.0, // ignored when integrals are given
+        integrals: Some(StepIntegrals { dissipated: d, work: w }),
+        ..Default::default()
+    };
+    budget.record(state(0.0, 5.0, 7.0)).unwrap();
+    let s = budget.record(state(0.5, 5.25, 7.5)).unwrap();
+    assert_eq!((s.dissipated, s.work), (0.25, 0.5));
+    assert_eq!(s.total, 1.0 + 0.25 - 0.5);
+    // A non-finite integral is refused and leaves the budget as it was.
+    assert!(budget.record(state(1.0, f64::NAN, 0.0)).is_err());
+    assert_eq!(budget.samples().len(), 2);
+}
+
 /// Area of the prolate spheroid with equatorial semi-axis `b` and polar semi-axis `c > b`.
 fn prolate_area(b: f64, c: f64) -> f64 {
     let e = (1.0 - b * b / (c * c)).sqrt();

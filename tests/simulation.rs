@@ -252,3 +252,63 @@ fn two_capsules_passing_close_do_not_merge() {
     assert!(max_overlap < 0.05, "the two phi fields overlap by {max_overlap:.3} of a capsule volume");
     println!("steps to pass: {}, max overlap {max_overlap:.2e}", sim.steps());
 }
+
+/// Start-up of a channel flow under a uniform body force (walls in z, no capsule): the flow
+/// stays unidirectional, so pressure and convection do no work and the Crank-Nicolson balance
+/// `rho (|v^{n+1}|^2 - |v^n|^2)/2 = dt (f - Phi) at v^{n+1/2}` is exact. The ledger of
+/// `track_energy` reproduces it to round-off; the trapezoid rule on the rates does not (it
+/// counts `dt Phi(v^{n+1} - v^n)/4` too much dissipation per step, most at the first step).
+#[test]
+fn the_energy_ledger_closes_the_budget_of_a_starting_channel_flow() {
+    use eulermembrane::diagnostics::EnergyBudget;
+    let wall = Boundary::Wall { velocity: [0.0; 3] };
+    let bc = [[Boundary::Periodic; 2], [Boundary::Periodic; 2], [wall, wall]];
+    let grid = Grid::new([4, 4, 16], [0.0; 3], [1.0; 3], bc).unwrap();
+    let run = |ledger: bool| {
+        let mut sim = Scene::new(grid.clone(), fluid()).body_force([1.0, 0.0, 0.0]).build().unwrap();
+        if ledger {
+            sim.track_energy();
+        }
+        let mut budget = EnergyBudget::new();
+        budget.record(sim.energy().unwrap()).unwrap();
+        for _ in 0..40 {
+            sim.step(2e-3).unwrap();
+            budget.record(sim.energy().unwrap()).unwrap();
+        }
+        let work = budget.latest().unwrap().work;
+        assert!(work > 0.0);
+        budget.drift() / work
+    };
+    let (with, without) = (run(true), run(false));
+    assert!(with < 1e-10, "ledger: relative budget error {with:e}");
+    assert!(without > 1e-4, "trapezoid: relative budget error {without:e}");
+}
+
+/// The reference area `sum delta / j_s h^3`: equal to the band area in the reference state,
+/// and divided by `lambda^2` by an isotropic pre-stretch `G_s = lambda^2 P` (`j_s = lambda^2`);
+/// the elastic energy is then `W_s(lambda)` per unit of that reference area.
+#[test]
+fn reference_area_and_elastic_energy_of_a_prestretched_capsule() {
+    let law = NeoHookean::new(2.0).unwrap();
+    let mut sim = Scene::new(box16(), fluid())
+        .capsule(Sphere::new([0.5, 0.5, 0.5], 0.3).unwrap())
+        .elasticity(law)
+        .build()
+        .unwrap();
+    let g = sim.grid().clone();
+    let band_area = {
+        let (band, delta) = (sim.band(0).unwrap(), sim.delta(0).unwrap());
+        band.cells().iter().map(|&i| delta.data[i]).sum::<f64>() * g.cell_volume()
+    };
+    let s0 = sim.reference_area(0).unwrap().unwrap();
+    assert!((s0 / band_area - 1.0).abs() < 1e-12, "{s0} {band_area}");
+    assert!(sim.elastic_energy().abs() < 1e-12 * band_area);
+    let lambda: f64 = 1.1;
+    sim.prestretch(0, lambda).unwrap();
+    let s = sim.reference_area(0).unwrap().unwrap();
+    assert!((s * lambda.powi(2) / band_area - 1.0).abs() < 1e-12, "{s}");
+    // Neo-Hookean (2.5) with c1 = 2 lambda^2 - 1, c2 = lambda^4.
+    let w = 2.0 / 6.0 * (2.0 * lambda.powi(2) - 1.0 + lambda.powi(-4) - 2.0);
+    let e = sim.elastic_energy();
+    assert!((e / (w * s) - 1.0).abs() < 1e-10, "{e} {}", w * s);
+}

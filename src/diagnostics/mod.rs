@@ -44,8 +44,8 @@ pub mod volume;
 
 pub use area::{AreaTracker, area_from_delta, dilation_rate};
 pub use energy::{
-    DissipationForm, EnergyBudget, EnergySample, EnergyState, body_force_power, elastic_energy,
-    kinetic_energy, viscous_dissipation,
+    DissipationForm, EnergyBudget, EnergySample, EnergyState, StepIntegrals, body_force_power,
+    elastic_energy, kinetic_energy, viscous_dissipation,
 };
 pub use modes::{ModeWeight, SurfaceModes, mode_amplitudes, normalized_legendre, surface_modes};
 pub use profile::{ProfileAxes, Span, streamwise_profile};

@@ -68,13 +68,14 @@ pub mod stability;
 pub use scene::{MembraneCoupling, Phase, Scene, Settings, SharedLaw, SurfaceForceFn};
 
 use crate::diagnostics::{
-    DissipationForm, EnergyState, body_force_power, kinetic_energy, viscous_dissipation,
+    DissipationForm, EnergyState, StepIntegrals, body_force_power, kinetic_energy, viscous_dissipation,
 };
 use crate::error::positive;
 use crate::fluid::{BodyForce, Coefficient, Forcing, ImplicitTerm, Materials};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::membrane::Band;
-use crate::membrane::stress::energy_density;
+use crate::membrane::SurfaceLaw;
+use crate::membrane::stress::surface_kinematics;
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
 use capsule::Capsule;
@@ -111,6 +112,8 @@ pub struct Simulation<T: Real> {
     v_old: Option<VectorField<T>>,
     /// Scratch of [`Simulation::energy`]: the external force on the faces.
     force: Option<VectorField<T>>,
+    /// The step integrals of [`Simulation::track_energy`] and the midpoint velocity (scratch).
+    ledger: Option<(StepIntegrals, VectorField<T>)>,
     /// Whether the `dt` warning of [`stability`] was printed.
     dt_warned: bool,
 }
@@ -156,6 +159,7 @@ impl<T: Real> Simulation<T> {
             surface_force,
             settings,
             force: None,
+            ledger: None,
             dt_warned: false,
         };
         sim.set_materials()?;
@@ -292,7 +296,19 @@ impl<T: Real> Simulation<T> {
                 }
             }
         }
+        // The energy ledger, from the step's midpoint velocity.
+        let step_integrals = match self.ledger.is_some() {
+            true => match self.step_integrals(dt) {
+                Ok(i) => Some(i),
+                Err(e) => return Err(self.abandon(e)),
+            },
+            false => None,
+        };
         // Commit.
+        if let (Some((l, _)), Some((d, w))) = (self.ledger.as_mut(), step_integrals) {
+            l.dissipated += d;
+            l.work += w;
+        }
         if let Some(v_old) = self.v_old.as_mut() {
             v_old.copy_from(self.flow.velocity());
         }
@@ -313,6 +329,51 @@ impl<T: Real> Simulation<T> {
             band_cells += cap.cur.band.len();
         }
         Ok(StepReport { flow: flow_info, profile_cells, band_cells })
+    }
+
+    /// `dt Phi(v^{n+1/2})` and `dt f^n . v^{n+1/2}` of the prepared step (see
+    /// [`StepIntegrals`]), with the materials and capsule levels of step `n + 1` and the external
+    /// forces at `t^n`, as the flow step used them.
+    fn step_integrals(&mut self, dt: T) -> Result<(f64, f64)> {
+        let g = &self.grid;
+        let Some((_, half)) = self.ledger.as_mut() else { return Ok((0.0, 0.0)) };
+        let (v0, v1) = (self.flow.velocity(), self.flow.proposed_velocity());
+        for d in 0..3 {
+            for ((h, &a), &b) in half.c[d].data.iter_mut().zip(&v0.c[d].data).zip(&v1.c[d].data) {
+                *h = T::lit(0.5) * (a + b);
+            }
+        }
+        let half = &*half;
+        let m = self.flow.materials();
+        let dissipation = viscous_dissipation(g, half, &m.mu, DissipationForm::Discrete)?;
+        let levels = self.capsules.iter().map(|c| &c.next).collect();
+        let power = external_power(
+            g,
+            &self.body_force,
+            self.surface_force.as_deref(),
+            levels,
+            self.flow.time(),
+            v0,
+            half,
+            &mut self.force,
+        )?;
+        Ok((dt.f64() * dissipation, dt.f64() * power))
+    }
+
+    /// Starts the energy ledger: from now on every step adds `dt Phi(v^{n+1/2})` and
+    /// `dt f^n . v^{n+1/2}` to the [`StepIntegrals`] that [`energy`](Self::energy) reports, the
+    /// terms of the scheme's own kinetic-energy balance (an [`EnergyBudget`] built from them
+    /// does not see the spurious jumps of the trapezoid rule where a force switches on or off).
+    /// Costs one pass over the box per step and one velocity field; a second call restarts the
+    /// integrals at zero. Checkpoints do not hold the ledger.
+    ///
+    /// [`EnergyBudget`]: crate::diagnostics::EnergyBudget
+    pub fn track_energy(&mut self) {
+        let half = match self.ledger.take() {
+            Some((_, h)) => h,
+            None => VectorField::zeros(&self.grid),
+        };
+        self.ledger = Some((StepIntegrals::default(), half));
     }
 
     /// Rolls back the prepared parts of a failed step and returns its error.
@@ -449,7 +510,31 @@ impl<T: Real> Simulation<T> {
         crate::diagnostics::area_from_delta(&self.grid, self.delta(c)?)
     }
 
-    /// Elastic energy `sum delta W_s h^3` over the membrane bands (zero without elasticity).
+    /// Reference (unstressed) area `sum delta / j_s h^3` of the membrane of capsule `c`, with
+    /// `j_s = sqrt(c2)` the local area dilation of `G_s` (`None` without elasticity). In the
+    /// continuum it keeps its initial value; its drift measures how much the discrete
+    /// transports of `G_s` (2.40) and of `phi` disagree on the change of area.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule.
+    pub fn reference_area(&self, c: usize) -> Result<Option<f64>> {
+        let cap = self.capsule(c)?;
+        let Some(gs) = cap.gs.as_ref() else { return Ok(None) };
+        let l = &cap.cur;
+        let mut s = 0.0;
+        for &idx in l.band.cells() {
+            let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
+            let k = surface_kinematics(&gs.get(idx), &n);
+            if k.c2 > T::zero() {
+                s += (l.delta.data[idx] / k.c2.sqrt()).f64();
+            }
+        }
+        Ok(Some(s * self.grid.cell_volume().f64()))
+    }
+
+    /// Elastic energy `sum delta W_s / j_s h^3` over the membrane bands (zero without
+    /// elasticity): `W_s` is an energy per unit *reference* area ((2.4) divides by
+    /// `j_s = sqrt(c2)`), `delta h^3` an element of *current* area, `dA_R = dA / j_s`.
     pub fn elastic_energy(&self) -> f64 {
         let Some(law) = &self.law else { return 0.0 };
         let dv = self.grid.cell_volume().f64();
@@ -458,38 +543,75 @@ impl<T: Real> Simulation<T> {
             let (Some(gs), l) = (&cap.gs, &cap.cur) else { continue };
             for &idx in l.band.cells() {
                 let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
-                e += (l.delta.data[idx] * energy_density(law, &gs.get(idx), &n)).f64() * dv;
+                let k = surface_kinematics(&gs.get(idx), &n);
+                if k.c2 > T::zero() {
+                    e += (l.delta.data[idx] * law.energy(k.c1, k.c2) / k.c2.sqrt()).f64() * dv;
+                }
             }
         }
         e
     }
 
     /// The terms of the energy budget of Sec. 3.2 at the current time: kinetic and elastic
-    /// energy, viscous dissipation rate, and the power of the body and surface forces (feed
-    /// them to an [`EnergyBudget`](crate::diagnostics::EnergyBudget)).
+    /// energy, viscous dissipation rate, the power of the body and surface forces and, after
+    /// [`track_energy`](Self::track_energy), their step integrals (feed them to an
+    /// [`EnergyBudget`](crate::diagnostics::EnergyBudget)).
     pub fn energy(&mut self) -> Result<EnergyState> {
         let g = &self.grid;
         let m = self.flow.materials();
         let v = self.flow.velocity();
         let kinetic = kinetic_energy(g, v, &m.rho)?;
         let dissipation_rate = viscous_dissipation(g, v, &m.mu, DissipationForm::Discrete)?;
-        let mut body_power = 0.0;
-        if self.body_force.is_active() || self.surface_force.is_some() {
-            let f = self.force.get_or_insert_with(|| VectorField::zeros(g));
-            for c in f.c.iter_mut() {
-                c.fill(T::zero());
-            }
-            let time = self.flow.time();
-            self.body_force.add(g, time, v, f);
-            if let Some(sf) = self.surface_force.as_deref() {
-                let s = SurfaceForcing { f: sf, levels: self.capsules.iter().map(|c| &c.cur).collect() };
-                s.add(g, time, v, f);
-            }
-            body_power = body_force_power(g, v, f)?;
-        }
+        let levels = self.capsules.iter().map(|c| &c.cur).collect();
+        let body_power = external_power(
+            g,
+            &self.body_force,
+            self.surface_force.as_deref(),
+            levels,
+            self.flow.time(),
+            v,
+            v,
+            &mut self.force,
+        )?;
         let elastic = self.elastic_energy();
-        Ok(EnergyState { time: self.flow.time().f64(), kinetic, elastic, dissipation_rate, body_power })
+        let integrals = self.ledger.as_ref().map(|(i, _)| *i);
+        Ok(EnergyState {
+            time: self.flow.time().f64(),
+            kinetic,
+            elastic,
+            dissipation_rate,
+            body_power,
+            integrals,
+        })
     }
+}
+
+/// The power `sum f . w dV` of the body force and the surface force at `time` (with the
+/// capsule `levels` and the velocity `v` the forces see), `f` assembled in `scratch`; zero
+/// without either force.
+#[allow(clippy::too_many_arguments)]
+fn external_power<T: Real>(
+    g: &Grid<T>,
+    body: &BodyForce<T>,
+    surface: Option<&SurfaceForceFn>,
+    levels: Vec<&capsule::Level<T>>,
+    time: T,
+    v: &VectorField<T>,
+    w: &VectorField<T>,
+    scratch: &mut Option<VectorField<T>>,
+) -> Result<f64> {
+    if !body.is_active() && surface.is_none() {
+        return Ok(0.0);
+    }
+    let f = scratch.get_or_insert_with(|| VectorField::zeros(g));
+    for c in f.c.iter_mut() {
+        c.fill(T::zero());
+    }
+    body.add(g, time, v, f);
+    if let Some(sf) = surface {
+        SurfaceForcing { f: sf, levels }.add(g, time, v, f);
+    }
+    body_force_power(g, w, f)
 }
 
 /// Refuses a capsule whose surface (`phi = 1/2`) comes within two profile widths (`2 h/beta`
