@@ -41,7 +41,7 @@ mod common;
 
 use common::shear::{self, ShearCase};
 use common::vortex::{self, VortexCase};
-use common::{Args, num, read_points, reference_dir, result};
+use common::{Args, BoxResult, num, read_points, reference_dir, result};
 use eulermembrane::Real;
 use eulermembrane::fluid::{KrylovParams, PredictorSolver, SorParams};
 use eulermembrane::interface::NormalScheme;
@@ -53,8 +53,6 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
 use std::sync::Mutex;
-
-type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
 /// Capillary number of the shear studies.
 const CA: f64 = 0.05;
@@ -184,10 +182,7 @@ struct Measured {
 }
 
 fn main() {
-    if let Err(e) = run() {
-        eprintln!("error: {e}");
-        std::process::exit(1);
-    }
+    common::exit_on_error(run());
 }
 
 fn run() -> BoxResult<()> {

@@ -18,7 +18,7 @@
 
 mod common;
 
-use common::{Args, num, result};
+use common::{Args, BoxResult, num, result};
 use eulermembrane::grid::Grid;
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::csv::write_columns;
@@ -27,13 +27,8 @@ use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw, equibiaxial_tensio
 use eulermembrane::simulation::{Phase, Scene};
 use std::time::Instant;
 
-type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
-
 fn main() {
-    if let Err(e) = run() {
-        eprintln!("error: {e}");
-        std::process::exit(1);
-    }
+    common::exit_on_error(run());
 }
 
 /// What one law's run measured.

@@ -29,7 +29,7 @@
 
 mod common;
 
-use common::{Args, num, result};
+use common::{Args, BoxResult, num, result};
 use eulermembrane::diagnostics::AreaTracker;
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
@@ -41,15 +41,10 @@ use eulermembrane::simulation::{Phase, Scene, Simulation};
 use std::path::Path;
 use std::time::Instant;
 
-type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
-
 const L: f64 = 0.5;
 
 fn main() {
-    if let Err(e) = run() {
-        eprintln!("error: {e}");
-        std::process::exit(1);
-    }
+    common::exit_on_error(run());
 }
 
 /// The physical parameters of a scene.

@@ -23,21 +23,16 @@
 mod common;
 
 use common::shear::{self, ShearCase, ShearOutcome};
-use common::{Args, num, read_points, reference_dir, result};
+use common::{Args, BoxResult, num, read_points, reference_dir, result};
 use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::io::plot::{Figure, LineStyle};
 use eulermembrane::simulation::Settings;
 use std::path::Path;
 
-type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
-
 const SWEEP: [f64; 5] = [0.0125, 0.025, 0.05, 0.1, 0.2];
 
 fn main() {
-    if let Err(e) = run() {
-        eprintln!("error: {e}");
-        std::process::exit(1);
-    }
+    common::exit_on_error(run());
 }
 
 fn run() -> BoxResult<()> {

@@ -39,10 +39,7 @@ const RADIUS: f64 = 0.1;
 const T_FORCE: f64 = 0.5;
 
 fn main() {
-    if let Err(e) = run() {
-        eprintln!("error: {e}");
-        std::process::exit(1);
-    }
+    common::exit_on_error(run());
 }
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {

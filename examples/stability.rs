@@ -36,10 +36,7 @@ use std::path::Path;
 use std::time::Instant;
 
 fn main() {
-    if let Err(e) = start() {
-        eprintln!("error: {e}");
-        std::process::exit(1);
-    }
+    common::exit_on_error(start());
 }
 
 type Res = Result<(), Box<dyn std::error::Error>>;

@@ -7,6 +7,17 @@ use std::path::{Path, PathBuf};
 pub mod shear;
 pub mod vortex;
 
+/// What an example's body returns.
+pub type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
+
+/// The `main` of an example: on error prints `error: ...` to stderr and exits with status 1.
+pub fn exit_on_error(result: BoxResult<()>) {
+    if let Err(e) = result {
+        eprintln!("error: {e}");
+        std::process::exit(1);
+    }
+}
+
 /// Command-line flags `--key value` and bare `--flag`.
 pub struct Args {
     map: HashMap<String, String>,
