@@ -297,17 +297,14 @@ impl<T: Real> Simulation<T> {
             }
         }
         // The energy ledger, from the step's midpoint velocity.
-        let step_integrals = match self.ledger.is_some() {
-            true => match self.step_integrals(dt) {
-                Ok(i) => Some(i),
-                Err(e) => return Err(self.abandon(e)),
-            },
-            false => None,
+        let (dissipated, work) = match self.step_integrals(dt) {
+            Ok(i) => i,
+            Err(e) => return Err(self.abandon(e)),
         };
         // Commit.
-        if let (Some((l, _)), Some((d, w))) = (self.ledger.as_mut(), step_integrals) {
-            l.dissipated += d;
-            l.work += w;
+        if let Some((l, _)) = self.ledger.as_mut() {
+            l.dissipated += dissipated;
+            l.work += work;
         }
         if let Some(v_old) = self.v_old.as_mut() {
             v_old.copy_from(self.flow.velocity());
@@ -332,7 +329,7 @@ impl<T: Real> Simulation<T> {
     }
 
     /// `dt Phi(v^{n+1/2})` and `dt f^n . v^{n+1/2}` of the prepared step (see
-    /// [`StepIntegrals`]), with the materials and capsule levels of step `n + 1` and the external
+    /// [`StepIntegrals`]; zeros without a ledger, nothing computed), with the materials and capsule levels of step `n + 1` and the external
     /// forces at `t^n`, as the flow step used them.
     fn step_integrals(&mut self, dt: T) -> Result<(f64, f64)> {
         let g = &self.grid;
