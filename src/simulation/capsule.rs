@@ -2,11 +2,11 @@
 //! only), the geometry derived from `phi` and the membrane band, double-buffered so that a step
 //! is computed beside the state and committed only when every part of it succeeded.
 
-use super::scene::SharedLaw;
+use super::scene::{Settings, SharedLaw};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::interface::geometry::{Band as PhiBand, delta_in_band};
-use crate::interface::shapes::{Shape, Smoothing, smoothed_fields, smoothed_phi};
-use crate::interface::{AdvectionParams, Advector, Geometry, NormalScheme};
+use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
+use crate::interface::{Advector, Geometry};
 use crate::membrane::{Band, Bending, InPlaneElasticity, StrainTransport, fill_projector};
 use crate::{Real, Result};
 
@@ -82,17 +82,14 @@ impl<T: Real> Level<T> {
 }
 
 impl<T: Real> Capsule<T> {
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         grid: &Grid<T>,
         shape: &dyn Shape,
-        smoothing: &Smoothing,
-        advection: AdvectionParams<T>,
-        normals: NormalScheme,
-        epsilon: T,
+        settings: &Settings<T>,
         law: Option<&SharedLaw<T>>,
         eb: Option<T>,
     ) -> Result<Self> {
+        let (smoothing, epsilon) = (&settings.smoothing, settings.epsilon);
         let bending = eb.is_some();
         let mut cur = Level::zeros(grid, bending, epsilon)?;
         if bending {
@@ -102,7 +99,7 @@ impl<T: Real> Capsule<T> {
         } else {
             cur.phi = smoothed_phi(grid, shape, smoothing)?;
         }
-        let mut geometry = Geometry::new(grid, normals);
+        let mut geometry = Geometry::new(grid, settings.normals);
         cur.derive(grid, &mut geometry)?;
         let next = Level::zeros(grid, bending, epsilon)?;
         let gs = law.map(|_| {
@@ -115,11 +112,11 @@ impl<T: Real> Capsule<T> {
             cur,
             next,
             gs,
-            advector: Advector::new(grid, advection, bending)?,
+            advector: Advector::new(grid, settings.advection, bending)?,
             geometry,
             elastic: law.map(|l| InPlaneElasticity::new(grid, l.clone())),
             strain: match law {
-                Some(_) => Some(StrainTransport::new(grid)?),
+                Some(_) => Some(StrainTransport::new(grid)?.with_advection(settings.strain_advection)),
                 None => None,
             },
             bending: match eb {

@@ -133,16 +133,7 @@ impl<T: Real> Simulation<T> {
     ) -> Result<Self> {
         let mut capsules = Vec::with_capacity(shapes.len());
         for (c, shape) in shapes.iter().enumerate() {
-            let cap = Capsule::new(
-                &grid,
-                shape.as_ref(),
-                &settings.smoothing,
-                settings.advection,
-                settings.normals,
-                settings.epsilon,
-                law.as_ref(),
-                eb,
-            )?;
+            let cap = Capsule::new(&grid, shape.as_ref(), &settings, law.as_ref(), eb)?;
             check_wall_distance(&grid, &cap.cur.phi, settings.smoothing.beta, c)?;
             capsules.push(cap);
         }
