@@ -17,7 +17,9 @@
 //! closer than the library allows.
 //!
 //! Flags: `--n N` (64), `--dt` (`0.02 (16/N)^2`), `--t-end T` (2), `--gamma G` (4), `--epsilon E`
-//! (0.01, the membrane band `delta h >= E`), `--vtk-every S` (0.25, in time units;
+//! (0.01, the membrane band `delta h >= E`), `--beta B` (1, MTHINC sharpness),
+//! `--tangential-gs` (`Settings::tangential_gs`), `--strain-advection 3|5` (upwind order of the
+//! `G_s` advection, 3), `--vtk-every S` (0.25, in time units;
 //! 0 for none), `--convergence`, `--max-n N` (64), `--out DIR` (`out/squashed_sphere`).
 //!
 //! Run: `cargo run --release --example squashed_sphere -- --n 64`.
@@ -31,7 +33,7 @@ use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::io::plot::{Figure, Panels, contour_segments};
 use eulermembrane::io::vtk::PvdSeries;
-use eulermembrane::membrane::NeoHookean;
+use eulermembrane::membrane::{NeoHookean, StrainAdvection};
 use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
 use std::time::Instant;
 
@@ -53,12 +55,20 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let t_end: f64 = args.get("t-end", 2.0);
     let vtk_every: f64 = args.get("vtk-every", 0.25);
     let dt: f64 = args.get("dt", dt_of(n));
-    let epsilon: f64 = args.get("epsilon", 0.01);
-    history(n, dt, t_end, gamma, epsilon, vtk_every, &out)
+    let mut settings = Settings::<f64>::default();
+    settings.epsilon = args.get("epsilon", settings.epsilon);
+    settings.advection.beta = args.get("beta", settings.advection.beta);
+    settings.tangential_gs = args.flag("tangential-gs");
+    settings.strain_advection = match args.get("strain-advection", 3u32) {
+        3 => StrainAdvection::Upwind3,
+        5 => StrainAdvection::Upwind5,
+        o => return Err(eulermembrane::Error::invalid("--strain-advection", o, "3 or 5").into()),
+    };
+    history(n, dt, t_end, gamma, settings, vtk_every, &out)
 }
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.
-fn build(n: usize, gamma: f64, epsilon: f64) -> eulermembrane::Result<Simulation<f64>> {
+fn build(n: usize, gamma: f64, settings: Settings<f64>) -> eulermembrane::Result<Simulation<f64>> {
     if n < 8 || n % 2 != 0 {
         return Err(eulermembrane::Error::invalid("--n", n, "an even number of cells >= 8"));
     }
@@ -73,7 +83,7 @@ fn build(n: usize, gamma: f64, epsilon: f64) -> eulermembrane::Result<Simulation
                 if t <= T_FORCE { [0.0, 0.0, -(x[2] - 0.25).signum() * gamma] } else { [0.0; 3] }
             },
         )
-        .settings(Settings { epsilon, ..Settings::default() })
+        .settings(settings)
         .build()
 }
 
@@ -91,11 +101,11 @@ fn history(
     dt: f64,
     t_end: f64,
     gamma: f64,
-    epsilon: f64,
+    settings: Settings<f64>,
     vtk_every: f64,
     out: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let mut sim = build(n, gamma, epsilon)?;
+    let mut sim = build(n, gamma, settings)?;
     let steps = (t_end / dt).round() as usize;
     let g = sim.grid().clone();
     eprintln!("squashed_sphere: {:?} cells, dt = {dt:.3e}, {steps} steps to t = {t_end}", g.n());
@@ -369,7 +379,7 @@ fn convergence(args: &Args, gamma: f64, out: &std::path::Path) -> Result<(), Box
     let mut sims = Vec::new();
     for &n in &ns {
         let clock = Instant::now();
-        let mut sim = build(n, gamma, 0.01)?;
+        let mut sim = build(n, gamma, Settings::default())?;
         let dt = dt_of(n);
         let steps = (t_end / dt).round() as usize;
         for _ in 0..steps {

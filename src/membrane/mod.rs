@@ -45,7 +45,10 @@ pub use bending::{Bending, BendingForcing, curvature_at, mean_curvature_at};
 pub use force::{InPlaneElasticity, InPlaneForcing, InPlaneImplicit};
 pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
 pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};
-pub use strain::{StrainTransport, advective_tendency, fill_projector, reset_outside_band, upwind3_face};
+pub use strain::{
+    StrainAdvection, StrainTransport, advective_tendency, fill_projector, reset_outside_band, upwind3_face,
+    upwind5_face,
+};
 pub use stress::{
     Jacobian, SurfaceKinematics, TensionInvariants, energy_density, h_tensor, jacobian, principal_tensions,
     stress, stress_and_jacobian, stretching, surface_kinematics, tension_invariants,

@@ -14,17 +14,27 @@
 //!
 //! then the re-set `G^{n+1} = P^{n+1}` in the cells with `δ h < ε` (Sec. 2.2.2).
 //!
-//! # Advection: third-order upwind finite volumes
+//! # Advection: upwind finite volumes of third or fifth order
 //!
 //! `A(v, G) = ∇_h·(v G) − G ∇_h·v` for each of the six components, with the flux through a face
-//! equal to the staggered velocity on that face times the upwind-biased quadratic
-//! reconstruction of `G` there: for the face between cells `i−1` and `i` and a velocity `u ≥ 0`,
-//! `G_face = (−G_{i−2} + 5 G_{i−1} + 2 G_i)/6` (mirrored for `u < 0`). This is the third-order
-//! upwind flux for cell averages, and — the flux difference being
-//! `u (G_{i−2} − 6 G_{i−1} + 3 G_i + 2 G_{i+1})/(6h)` — also third order for point values
-//! (leading error `u h³/12 ∂⁴G`, dissipative). QUICK's `(−1, 6, 3)/8` would be second order
-//! here. Subtracting `G ∇_h·v` makes a uniform `G_s` exactly steady under any velocity, and
-//! changes nothing for a discretely divergence-free one.
+//! equal to the staggered velocity on that face times an upwind-biased reconstruction of `G`
+//! there ([`StrainAdvection`]):
+//!
+//! - [`StrainAdvection::Upwind3`], the paper's: for the face between cells `i−1` and `i` and a
+//!   velocity `u ≥ 0`, `G_face = (−G_{i−2} + 5 G_{i−1} + 2 G_i)/6` (mirrored for `u < 0`). This
+//!   is the third-order upwind flux for cell averages, and — the flux difference being
+//!   `u (G_{i−2} − 6 G_{i−1} + 3 G_i + 2 G_{i+1})/(6h)` — also third order for point values
+//!   (leading error `u h³/12 ∂⁴G`, dissipative). QUICK's `(−1, 6, 3)/8` would be second order
+//!   here;
+//! - [`StrainAdvection::Upwind5`]: `G_face = (2 G_{i−3} − 13 G_{i−2} + 47 G_{i−1} + 27 G_i
+//!   − 3 G_{i+1})/60`, fifth order (leading error `∝ u h⁵ ∂⁶G`, dissipative). The paper notes
+//!   that (2.39) "should also be discretized by a less dissipative numerical method"; the
+//!   squashed sphere of Sec. 3.2 shows why: the advection error of `G_s` relative to the
+//!   rotating tangent frame is the largest source of spurious elastic energy there (see
+//!   `docs/validation.md`).
+//!
+//! Subtracting `G ∇_h·v` makes a uniform `G_s` exactly steady under any velocity, and changes
+//! nothing for a discretely divergence-free one.
 //!
 //! The stretching term uses the cell-centred velocity gradient [`grad_v_at_cell`]
 //! (`∇v[i][j] = ∂v_j/∂x_i`), the operator whose negative adjoint is the face divergence of the
@@ -34,7 +44,7 @@
 //!
 //! With the band `B` of step `n+1` (from `δ^{n+1}`):
 //! - the advective tendency on [`Band::halo`]`(1)` (so that cells entering the band next step
-//!   have their AB2 history); it reads `Gⁿ` up to three cells from the band;
+//!   have their AB2 history); it reads `Gⁿ` up to three (fifth order: four) cells from the band;
 //! - the update on the band cells;
 //! - the re-set `G = P^{n+1}` out to `halo(4)`, so that next step's reads find valid values.
 //!
@@ -72,15 +82,44 @@ pub fn upwind3_face<T: Real>(u: T, a: T, b: T, c: T, d: T) -> T {
     if u >= T::zero() { sixth * (five * b + two * c - a) } else { sixth * (two * b + five * c - d) }
 }
 
+/// Fifth-order upwind value on the face between `c` and `d` of the window `a b c | d e f`:
+/// `(2a − 13b + 47c + 27d − 3e)/60` if `u ≥ 0`, else `(2f − 13e + 47d + 27c − 3b)/60`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn upwind5_face<T: Real>(u: T, a: T, b: T, c: T, d: T, e: T, f: T) -> T {
+    let k = T::lit(1.0 / 60.0);
+    let (w0, w1, w2, w3, w4) = (T::lit(2.0), T::lit(13.0), T::lit(47.0), T::lit(27.0), T::lit(3.0));
+    if u >= T::zero() {
+        k * (w0 * a - w1 * b + w2 * c + w3 * d - w4 * e)
+    } else {
+        k * (w0 * f - w1 * e + w2 * d + w3 * c - w4 * b)
+    }
+}
+
+/// The upwind reconstruction of `G_s` on the faces in the advection of (2.39)/(2.40).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StrainAdvection {
+    /// Third-order upwind (the paper's), `(−1, 5, 2)/6`; reads two cells upwind. The default:
+    /// its dissipation keeps the hard cases of `tests/stability.rs` stable.
+    #[default]
+    Upwind3,
+    /// Fifth-order upwind, `(2, −13, 47, 27, −3)/60`; reads three cells upwind (the ghost depth).
+    /// More accurate (the squashed sphere's energy error falls by 20-25 %), but less
+    /// dissipative: two colliding capsules at 4 cells per radius blow up at `t = 3.6` with it
+    /// (see `docs/stability.md`).
+    Upwind5,
+}
+
 /// The advective tendency `A(v, G) = ∇_h·(v G) − G ∇_h·v` of the six components of `gs` at cell
-/// `idx` (third-order upwind fluxes, see the [module docs](self)). Reads `gs` two cells and `v`
-/// one face around the cell (ghosts filled).
+/// `idx` with the upwind fluxes of `scheme` (see the [module docs](self)). Reads `gs` two
+/// (fifth order: three) cells and `v` one face around the cell (ghosts filled).
 #[inline]
 pub fn advective_tendency<T: Real>(
     grid: &Grid<T>,
     v: &VectorField<T>,
     gs: &SymField<T>,
     idx: usize,
+    scheme: StrainAdvection,
 ) -> Sym<T> {
     let st = grid.strides();
     let h = grid.h();
@@ -95,9 +134,16 @@ pub fn advective_tendency<T: Real>(
         for (o, comp) in out.iter_mut().zip(gs.c.iter()) {
             let q = &comp.data;
             let (m2, m1, c0, p1, p2) = (q[idx - 2 * s], q[idx - s], q[idx], q[idx + s], q[idx + 2 * s]);
-            let f_lo = u_lo * upwind3_face(u_lo, m2, m1, c0, p1);
-            let f_hi = u_hi * upwind3_face(u_hi, m1, c0, p1, p2);
-            *o += (f_hi - f_lo) * ih;
+            let (f_lo, f_hi) = match scheme {
+                StrainAdvection::Upwind3 => {
+                    (upwind3_face(u_lo, m2, m1, c0, p1), upwind3_face(u_hi, m1, c0, p1, p2))
+                }
+                StrainAdvection::Upwind5 => {
+                    let (m3, p3) = (q[idx - 3 * s], q[idx + 3 * s]);
+                    (upwind5_face(u_lo, m3, m2, m1, c0, p1, p2), upwind5_face(u_hi, m2, m1, c0, p1, p2, p3))
+                }
+            };
+            *o += (u_hi * f_hi - u_lo * f_lo) * ih;
         }
     }
     for (o, comp) in out.iter_mut().zip(gs.c.iter()) {
@@ -145,6 +191,7 @@ pub fn reset_outside_band<T: Real>(
 #[derive(Debug, Clone)]
 pub struct StrainTransport<T> {
     grid: Grid<T>,
+    scheme: StrainAdvection,
     /// Position in `prev_cells` of every interior storage index, or `NONE`.
     slot: Vec<u32>,
     prev_cells: Vec<usize>,
@@ -166,6 +213,7 @@ impl<T: Real> StrainTransport<T> {
         }
         Ok(StrainTransport {
             grid: grid.clone(),
+            scheme: StrainAdvection::default(),
             slot: vec![NONE; grid.len()],
             prev_cells: Vec::new(),
             prev_adv: Vec::new(),
@@ -173,6 +221,18 @@ impl<T: Real> StrainTransport<T> {
             new_g: Vec::new(),
             has_history: false,
         })
+    }
+
+    /// The same transport with the face reconstruction `scheme` (default
+    /// [`StrainAdvection::Upwind3`]).
+    pub fn with_advection(mut self, scheme: StrainAdvection) -> Self {
+        self.scheme = scheme;
+        self
+    }
+
+    /// The face reconstruction in use.
+    pub fn advection(&self) -> StrainAdvection {
+        self.scheme
     }
 
     /// Forgets the AB2 history (the next step uses forward Euler), e.g. after a restart from a
@@ -297,12 +357,13 @@ impl<T: Real> StrainTransport<T> {
 
         // 1. A(vⁿ, Gⁿ) on halo(1).
         let cells1 = band.halo(1);
+        let scheme = self.scheme;
         self.adv.resize(cells1.len(), [T::zero(); 6]);
         self.adv
             .par_iter_mut()
             .zip(cells1.par_iter())
             .with_min_len(MIN_CELLS_PER_TASK)
-            .for_each(|(a, &idx)| *a = advective_tendency(grid, v_old, gs_ro, idx));
+            .for_each(|(a, &idx)| *a = advective_tendency(grid, v_old, gs_ro, idx, scheme));
 
         // 2. G^{n+1} on the band.
         let nb = band.len();

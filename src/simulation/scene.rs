@@ -8,7 +8,7 @@ use crate::fluid::FlowConfig;
 use crate::grid::Grid;
 use crate::interface::shapes::{Shape, Smoothing};
 use crate::interface::{AdvectionParams, NormalScheme};
-use crate::membrane::SurfaceLaw;
+use crate::membrane::{StrainAdvection, SurfaceLaw};
 use crate::{Error, Real, Result};
 use std::sync::Arc;
 
@@ -86,6 +86,10 @@ pub struct Settings<T> {
     /// discrete transport lets normal components grow, which feed the in-plane block through
     /// the velocity gradient. Not in the paper. Default `false`.
     pub tangential_gs: bool,
+    /// Face reconstruction in the advection of `G_s` (2.40). Default
+    /// [`StrainAdvection::Upwind3`] (the paper's); [`StrainAdvection::Upwind5`] is more accurate
+    /// and less dissipative.
+    pub strain_advection: StrainAdvection,
 }
 
 /// How the in-plane membrane stress enters the momentum predictor.
@@ -110,6 +114,7 @@ impl<T: Real> Default for Settings<T> {
             smoothing: Smoothing::default(),
             coupling: MembraneCoupling::default(),
             tangential_gs: false,
+            strain_advection: StrainAdvection::default(),
         }
     }
 }
