@@ -23,7 +23,9 @@
 //! an opt-in long run; works at reduced `--n`.
 //!
 //! Flags: `--n` (32; the paper uses 64, 128 for `many`), `--dt`, `--t-end`, `--alpha LIST`,
-//! `--case`, `--cells`, `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
+//! `--case`, `--cells`, `--bending-filter K` (passes of `Settings::bending_filter`, 0: the
+//! paper's force; 2 keeps the N = 64 cell from blowing up early, see `docs/validation.md`),
+//! `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
 //! Run: `cargo run --release --example rbc_channel -- --n 32`.
 
@@ -37,7 +39,7 @@ use eulermembrane::io::csv::{CsvWriter, write_columns};
 use eulermembrane::io::plot::{Figure, LineStyle, contour_segments};
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::Skalak;
-use eulermembrane::simulation::{Phase, Scene, Simulation};
+use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
 use std::path::Path;
 use std::time::Instant;
 
@@ -56,10 +58,20 @@ struct Params {
     alpha: f64,
     radius: f64,
     wall_axis: usize,
+    /// `Settings::bending_filter` (`--bending-filter`).
+    bending_filter: usize,
 }
 
-const PAPER: Params =
-    Params { mu_in: 0.25, mu_out: 0.05, es: 0.05, eb: 5e-5, alpha: 40.0, radius: 0.17, wall_axis: 1 };
+const PAPER: Params = Params {
+    mu_in: 0.25,
+    mu_out: 0.05,
+    es: 0.05,
+    eb: 5e-5,
+    alpha: 40.0,
+    radius: 0.17,
+    wall_axis: 1,
+    bending_filter: 0,
+};
 
 fn run() -> BoxResult<()> {
     let args = Args::parse();
@@ -67,19 +79,21 @@ fn run() -> BoxResult<()> {
     let n: usize = args.get("n", 32);
     let case: String = args.get("case", "single".to_string());
     let vtk_every: f64 = args.get("vtk-every", 0.5);
+    let filter: usize = args.get("bending-filter", 0);
     match case.as_str() {
         "single" => {
             let alphas: String = args.get("alpha", "2,10,40".to_string());
             let alphas: Vec<f64> = alphas.split(',').map(|a| a.trim().parse()).collect::<Result<_, _>>()?;
-            single(n, args.get("dt", 0.001), args.get("t-end", 2.0), &alphas, &out)
+            single(n, args.get("dt", 0.001), args.get("t-end", 2.0), &alphas, filter, &out)
         }
         "two1" | "two2" => {
             let z = if case == "two1" { [0.25, 0.25] } else { [0.23, 0.27] };
             let centres = vec![[0.125, 0.25, z[0]], [0.375, 0.25, z[1]]];
-            two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, vtk_every, &out)
+            two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, filter, vtk_every, &out)
         }
         "many" => {
-            many(n, args.get("dt", 0.00025), args.get("t-end", 5.0), args.get("cells", 8), vtk_every, &out)
+            let cells = args.get("cells", 8);
+            many(n, args.get("dt", 0.00025), args.get("t-end", 5.0), cells, filter, vtk_every, &out)
         }
         other => Err(format!("--case {other}: expected single, two1, two2 or many").into()),
     }
@@ -94,10 +108,14 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
     for &c in centres {
         s = s.capsule(Biconcave::new(c, p.radius)?);
     }
-    s.elasticity(Skalak::new(p.es, p.alpha)?).bending(p.eb).body_force([1.0, 0.0, 0.0]).build()
+    s.elasticity(Skalak::new(p.es, p.alpha)?)
+        .bending(p.eb)
+        .body_force([1.0, 0.0, 0.0])
+        .settings(Settings { bending_filter: p.bending_filter, ..Settings::default() })
+        .build()
 }
 
-fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], out: &Path) -> BoxResult<()> {
+fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], filter: usize, out: &Path) -> BoxResult<()> {
     let steps = (t_end / dt).round() as usize;
     let mut fig =
         Figure::new(format!("surface area by (3.7), N = {n} (Fig. 12)")).x_label("t").y_label("s / s0");
@@ -107,7 +125,7 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], out: &Path) -> BoxResul
         .equal_aspect(true);
     let mut lines = Vec::new();
     for &alpha in alphas {
-        let p = Params { alpha, ..PAPER };
+        let p = Params { alpha, bending_filter: filter, ..PAPER };
         let mut sim = scene(n, &p, &[[0.25; 3]])?;
         eprintln!("rbc_channel single: alpha = {alpha}, {n}^3 cells, {steps} steps of dt = {dt}");
         let g = sim.grid().clone();
@@ -215,16 +233,18 @@ fn rear_concavity(g: &Grid<f64>, phi: &Field<f64>, centre: [f64; 3], a: f64) -> 
     Some(rear(0.0)? - rear(0.6 * a)?)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn two(
     n: usize,
     dt: f64,
     t_end: f64,
     case: &str,
     centres: &[[f64; 3]],
+    filter: usize,
     vtk_every: f64,
     out: &Path,
 ) -> BoxResult<()> {
-    let p = PAPER;
+    let p = Params { bending_filter: filter, ..PAPER };
     let mut sim = scene(n, &p, centres)?;
     let steps = (t_end / dt).round() as usize;
     eprintln!("rbc_channel {case}: {n}^3 cells, {steps} steps of dt = {dt}");
@@ -304,8 +324,25 @@ fn two(
     Ok(())
 }
 
-fn many(n: usize, dt: f64, t_end: f64, cells: usize, vtk_every: f64, out: &Path) -> BoxResult<()> {
-    let p = Params { mu_in: 0.5, mu_out: 0.1, es: 0.1, eb: 5e-6, alpha: 10.0, radius: 0.06, wall_axis: 2 };
+fn many(
+    n: usize,
+    dt: f64,
+    t_end: f64,
+    cells: usize,
+    filter: usize,
+    vtk_every: f64,
+    out: &Path,
+) -> BoxResult<()> {
+    let p = Params {
+        mu_in: 0.5,
+        mu_out: 0.1,
+        es: 0.1,
+        eb: 5e-6,
+        alpha: 10.0,
+        radius: 0.06,
+        wall_axis: 2,
+        bending_filter: filter,
+    };
     // A lattice of cells away from the walls, two per row along x, staggered.
     let per = (cells as f64).sqrt().ceil() as usize;
     let centres: Vec<[f64; 3]> = (0..cells)

@@ -15,7 +15,8 @@
 //! Flags: `--ca` (0.05), `--n` (32; cells along x and z, N/2 along y; the radius is N/8
 //! cells), `--dt` (half the paper's `0.001 (128/N)^2`, see `common::shear`), `--t-end` (6), `--bending` (`E_b'`, 0 for
 //! none), `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
-//! `--sweep`, `--reference DIR`, `--out DIR` (`out/shear_capsule`).
+//! `--sweep`, `--tangential-gs`, `--bending-filter K` (passes of `Settings::bending_filter`, 0),
+//! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
 //! Run: `cargo run --release --example shear_capsule` (about a minute on 2 cores; `--n 64` for
 //! 8 cells per radius, about 30 minutes).
@@ -103,11 +104,14 @@ fn run() -> BoxResult<()> {
 
 /// Runs one case in the precision the flags ask for.
 fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
-    let tangential_gs = args.flag("tangential-gs");
+    fn settings<T: eulermembrane::Real>(args: &Args) -> Settings<T> {
+        let (tangential_gs, bending_filter) = (args.flag("tangential-gs"), args.get("bending-filter", 0));
+        Settings { tangential_gs, bending_filter, ..Settings::default() }
+    }
     if args.flag("f32") {
-        shear::run::<f32>(case, Settings { tangential_gs, ..Settings::default() }, 0.05, vtk, false)
+        shear::run::<f32>(case, settings(args), 0.05, vtk, false)
     } else {
-        shear::run::<f64>(case, Settings { tangential_gs, ..Settings::default() }, 0.05, vtk, false)
+        shear::run::<f64>(case, settings(args), 0.05, vtk, false)
     }
 }
 

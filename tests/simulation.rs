@@ -160,6 +160,10 @@ fn bad_scenes_are_refused() {
     // Non-positive bending modulus.
     let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(-1.0).build();
     assert!(matches!(e, Err(Error::InvalidParameter { name: "eb", .. })));
+    // Too many passes of the bending-moment filter.
+    let settings = Settings { bending_filter: 9, ..Settings::default() };
+    let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(1e-3).settings(settings).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "bending_filter", .. })));
     // epsilon outside (0, 1).
     for eps in [0.0, 1.0, -0.1, f64::NAN] {
         let settings = Settings { epsilon: eps, ..Settings::default() };

@@ -120,7 +120,7 @@ impl<T: Real> Capsule<T> {
                 None => None,
             },
             bending: match eb {
-                Some(eb) => Some(Bending::new(grid, eb)?),
+                Some(eb) => Some(Bending::new(grid, eb)?.with_filter(settings.bending_filter)?),
                 None => None,
             },
             saved: (None, Vec::new(), Vec::new()),
