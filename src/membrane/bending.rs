@@ -143,8 +143,9 @@ impl<T: Real> Bending<T> {
     /// (weights renormalised where the 3×3×3 block leaves the band), projected `P m P`; then
     /// `m̃ = δ m`. `m` is constant along the normals in the continuum and smooth along the
     /// surface, so a pass changes it by `O(h²)`; it damps the grid-scale oscillation of `m̃` that
-    /// makes a capsule at rest with bending unstable at 8 or more cells per radius (see
-    /// `docs/validation.md`, "Bending at rest").
+    /// makes a capsule at rest with bending unstable from about 10 cells per radius (8 in the
+    /// shear case of Sec. 3.3.2). It slows that instability (about 7 times with 2 passes), it
+    /// does not remove it (see `docs/validation.md`, "Bending at rest").
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] naming `bending_filter` above [`MAX_FILTER_PASSES`].

@@ -91,9 +91,10 @@ pub struct Settings<T> {
     /// and less dissipative.
     pub strain_advection: StrainAdvection,
     /// Passes of the binomial filter on the bending moment (`membrane::Bending::with_filter`),
-    /// at most `membrane::bending::MAX_FILTER_PASSES`. Default 0 (the paper's force); 2
-    /// keeps a capsule at rest with bending stable at 8-13 cells per radius, where the
-    /// unfiltered force is not (see `docs/validation.md`). Not in the paper.
+    /// at most `membrane::bending::MAX_FILTER_PASSES`. Default 0 (the paper's force). With 2
+    /// passes the spurious flow of a capsule at rest with bending at 12.8 cells per radius
+    /// grows about 7 times more slowly than with the paper's force; it still grows (see
+    /// `docs/validation.md`, "Bending at rest"). Not in the paper.
     pub bending_filter: usize,
 }
 
