@@ -160,7 +160,10 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], filter: usize, out: &Pa
             s37.push(rel);
             sdelta.push(rel_delta);
             csv.row(&[sim.time(), rel, rel_delta, drift])?;
-            common::progress(s, steps, sim.time(), &clock, &format!("s/s0={rel:.4}"));
+            if s % (steps / 20).max(1) == 0 {
+                csv.flush()?; // a long run that fails still leaves its curve so far
+            }
+            common::progress(s, steps, sim.time(), &clock, &format!("s/s0={rel:.4} delta={rel_delta:.4}"));
         }
         csv.finish()?;
         fig.line(&t, &s37, &format!("alpha = {alpha}, (3.7)"));
