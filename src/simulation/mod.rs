@@ -75,7 +75,7 @@ use crate::fluid::{BodyForce, Coefficient, Forcing, ImplicitTerm, Materials};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::membrane::Band;
 use crate::membrane::SurfaceLaw;
-use crate::membrane::stress::surface_kinematics;
+use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
 use capsule::Capsule;
@@ -507,17 +507,7 @@ impl<T: Real> Simulation<T> {
     /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule.
     pub fn reference_area(&self, c: usize) -> Result<Option<f64>> {
         let cap = self.capsule(c)?;
-        let Some(gs) = cap.gs.as_ref() else { return Ok(None) };
-        let l = &cap.cur;
-        let mut s = 0.0;
-        for &idx in l.band.cells() {
-            let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
-            let k = surface_kinematics(&gs.get(idx), &n);
-            if k.c2 > T::zero() {
-                s += (l.delta.data[idx] / k.c2.sqrt()).f64();
-            }
-        }
-        Ok(Some(s * self.grid.cell_volume().f64()))
+        Ok(cap.gs.as_ref().map(|gs| self.reference_integral(cap, gs, |_| T::one())))
     }
 
     /// Elastic energy `sum delta W_s / j_s h^3` over the membrane bands (zero without
@@ -525,19 +515,32 @@ impl<T: Real> Simulation<T> {
     /// `j_s = sqrt(c2)`), `delta h^3` an element of *current* area, `dA_R = dA / j_s`.
     pub fn elastic_energy(&self) -> f64 {
         let Some(law) = &self.law else { return 0.0 };
-        let dv = self.grid.cell_volume().f64();
-        let mut e = 0.0;
-        for cap in &self.capsules {
-            let (Some(gs), l) = (&cap.gs, &cap.cur) else { continue };
-            for &idx in l.band.cells() {
-                let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
-                let k = surface_kinematics(&gs.get(idx), &n);
-                if k.c2 > T::zero() {
-                    e += (l.delta.data[idx] * law.energy(k.c1, k.c2) / k.c2.sqrt()).f64() * dv;
-                }
+        let energy = |k: &SurfaceKinematics<T>| law.energy(k.c1, k.c2);
+        self.capsules
+            .iter()
+            .filter_map(|cap| Some(self.reference_integral(cap, cap.gs.as_ref()?, energy)))
+            .sum()
+    }
+
+    /// `sum delta q / j_s h^3` over the band of `cap` at the current time: the integral of `q`
+    /// (a function of the surface kinematics of `gs`) over the membrane's reference area
+    /// (`dA_R = dA / j_s`, `j_s = sqrt(c2)`; cells with `c2 <= 0` left out).
+    fn reference_integral(
+        &self,
+        cap: &Capsule<T>,
+        gs: &SymField<T>,
+        q: impl Fn(&SurfaceKinematics<T>) -> T,
+    ) -> f64 {
+        let l = &cap.cur;
+        let mut s = 0.0;
+        for &idx in l.band.cells() {
+            let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
+            let k = surface_kinematics(&gs.get(idx), &n);
+            if k.c2 > T::zero() {
+                s += (l.delta.data[idx] * q(&k) / k.c2.sqrt()).f64();
             }
         }
-        e
+        s * self.grid.cell_volume().f64()
     }
 
     /// The terms of the energy budget of Sec. 3.2 at the current time: kinetic and elastic
