@@ -632,15 +632,18 @@ fn translation_error(n: usize, t_end: f64, scheme: StrainAdvection) -> f64 {
     worst
 }
 
+/// Errors at N = 16, 32, 64 and the observed orders of the two refinements.
+fn orders(err: impl Fn(usize) -> f64) -> ([f64; 3], [f64; 2]) {
+    let e = [err(16), err(32), err(64)];
+    (e, [(e[0] / e[1]).log2(), (e[1] / e[2]).log2()])
+}
+
 #[test]
 fn advection_is_third_order() {
     let up3 = StrainAdvection::Upwind3;
-    let (e1, e2, e3) = (tendency_error(16, up3), tendency_error(32, up3), tendency_error(64, up3));
-    let (o1, o2) = ((e1 / e2).log2(), (e2 / e3).log2());
+    let ([e1, e2, e3], [o1, o2]) = orders(|n| tendency_error(n, up3));
     assert!(o1 > 2.7 && o2 > 2.85, "tendency orders {o1:.2}, {o2:.2} ({e1:e}, {e2:e}, {e3:e})");
-    let t = |n| translation_error(n, 0.5, up3);
-    let (t1, t2, t3) = (t(16), t(32), t(64));
-    let (p1, p2) = ((t1 / t2).log2(), (t2 / t3).log2());
+    let ([t1, t2, t3], [p1, p2]) = orders(|n| translation_error(n, 0.5, up3));
     assert!(p1 > 2.6 && p2 > 2.8, "translation orders {p1:.2}, {p2:.2} ({t1:e}, {t2:e}, {t3:e})");
 }
 
@@ -650,8 +653,7 @@ fn advection_is_third_order() {
 #[test]
 fn upwind5_advection_is_fifth_order() {
     let up5 = StrainAdvection::Upwind5;
-    let (e1, e2, e3) = (tendency_error(16, up5), tendency_error(32, up5), tendency_error(64, up5));
-    let (o1, o2) = ((e1 / e2).log2(), (e2 / e3).log2());
+    let ([e1, e2, e3], [o1, o2]) = orders(|n| tendency_error(n, up5));
     assert!(o1 > 4.5 && o2 > 4.8, "tendency orders {o1:.2}, {o2:.2} ({e1:e}, {e2:e}, {e3:e})");
     assert!(e2 < 0.1 * tendency_error(32, StrainAdvection::Upwind3));
     let (t5, t3) = (translation_error(32, 0.5, up5), translation_error(32, 0.5, StrainAdvection::Upwind3));
