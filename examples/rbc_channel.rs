@@ -23,7 +23,9 @@
 //! an opt-in long run; works at reduced `--n`.
 //!
 //! Flags: `--n` (32; the paper uses 64, 128 for `many`), `--dt`, `--t-end`, `--alpha LIST`,
-//! `--case`, `--cells`, `--bending-filter K` (passes of `Settings::bending_filter`, 0: the
+//! `--case`, `--cells`, `--bending-form divergence|energy` (`Settings::bending_form`; `energy`
+//! keeps the N = 64 cell stable at `dt = 4e-4`, see `docs/validation.md`),
+//! `--bending-filter K` (passes of `Settings::bending_filter`, 0: the
 //! paper's force; 2 keeps the N = 64 cell from blowing up early, see `docs/validation.md`),
 //! `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
@@ -38,12 +40,19 @@ use eulermembrane::interface::shapes::Biconcave;
 use eulermembrane::io::csv::{CsvWriter, write_columns};
 use eulermembrane::io::plot::{Figure, LineStyle, contour_segments};
 use eulermembrane::io::vtk::PvdSeries;
-use eulermembrane::membrane::Skalak;
+use eulermembrane::membrane::{BendingForm, Skalak};
 use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
 use std::path::Path;
 use std::time::Instant;
 
 const L: f64 = 0.5;
+
+/// The bending force of the scenes: filter passes and form (`Settings`).
+#[derive(Clone, Copy)]
+struct Bend {
+    filter: usize,
+    form: BendingForm,
+}
 
 fn main() {
     common::exit_on_error(run());
@@ -58,8 +67,8 @@ struct Params {
     alpha: f64,
     radius: f64,
     wall_axis: usize,
-    /// `Settings::bending_filter` (`--bending-filter`).
-    bending_filter: usize,
+    /// The bending force (`--bending-filter`, `--bending-form`).
+    bend: Bend,
 }
 
 const PAPER: Params = Params {
@@ -70,7 +79,7 @@ const PAPER: Params = Params {
     alpha: 40.0,
     radius: 0.17,
     wall_axis: 1,
-    bending_filter: 0,
+    bend: Bend { filter: 0, form: BendingForm::Divergence },
 };
 
 fn run() -> BoxResult<()> {
@@ -79,7 +88,8 @@ fn run() -> BoxResult<()> {
     let n: usize = args.get("n", 32);
     let case: String = args.get("case", "single".to_string());
     let vtk_every: f64 = args.get("vtk-every", 0.5);
-    let filter: usize = args.get("bending-filter", 0);
+    let form: String = args.get("bending-form", "divergence".to_string());
+    let filter = Bend { filter: args.get("bending-filter", 0), form: BendingForm::from_name(&form)? };
     match case.as_str() {
         "single" => {
             let alphas: String = args.get("alpha", "2,10,40".to_string());
@@ -111,11 +121,15 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
     s.elasticity(Skalak::new(p.es, p.alpha)?)
         .bending(p.eb)
         .body_force([1.0, 0.0, 0.0])
-        .settings(Settings { bending_filter: p.bending_filter, ..Settings::default() })
+        .settings(Settings {
+            bending_filter: p.bend.filter,
+            bending_form: p.bend.form,
+            ..Settings::default()
+        })
         .build()
 }
 
-fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], filter: usize, out: &Path) -> BoxResult<()> {
+fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], filter: Bend, out: &Path) -> BoxResult<()> {
     let steps = (t_end / dt).round() as usize;
     let mut fig =
         Figure::new(format!("surface area by (3.7), N = {n} (Fig. 12)")).x_label("t").y_label("s / s0");
@@ -125,7 +139,7 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], filter: usize, out: &Pa
         .equal_aspect(true);
     let mut lines = Vec::new();
     for &alpha in alphas {
-        let p = Params { alpha, bending_filter: filter, ..PAPER };
+        let p = Params { alpha, bend: filter, ..PAPER };
         let mut sim = scene(n, &p, &[[0.25; 3]])?;
         eprintln!("rbc_channel single: alpha = {alpha}, {n}^3 cells, {steps} steps of dt = {dt}");
         let g = sim.grid().clone();
@@ -243,11 +257,11 @@ fn two(
     t_end: f64,
     case: &str,
     centres: &[[f64; 3]],
-    filter: usize,
+    filter: Bend,
     vtk_every: f64,
     out: &Path,
 ) -> BoxResult<()> {
-    let p = Params { bending_filter: filter, ..PAPER };
+    let p = Params { bend: filter, ..PAPER };
     let mut sim = scene(n, &p, centres)?;
     let steps = (t_end / dt).round() as usize;
     eprintln!("rbc_channel {case}: {n}^3 cells, {steps} steps of dt = {dt}");
@@ -332,7 +346,7 @@ fn many(
     dt: f64,
     t_end: f64,
     cells: usize,
-    filter: usize,
+    filter: Bend,
     vtk_every: f64,
     out: &Path,
 ) -> BoxResult<()> {
@@ -344,7 +358,7 @@ fn many(
         alpha: 10.0,
         radius: 0.06,
         wall_axis: 2,
-        bending_filter: filter,
+        bend: filter,
     };
     // A lattice of cells away from the walls, two per row along x, staggered.
     let per = (cells as f64).sqrt().ceil() as usize;

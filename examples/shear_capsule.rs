@@ -16,6 +16,7 @@
 //! cells), `--dt` (half the paper's `0.001 (128/N)^2`, see `common::shear`), `--t-end` (6), `--bending` (`E_b'`, 0 for
 //! none), `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
 //! `--sweep`, `--tangential-gs`, `--bending-filter K` (passes of `Settings::bending_filter`, 0),
+//! `--bending-form divergence|energy` (`Settings::bending_form`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
 //! Run: `cargo run --release --example shear_capsule` (about a minute on 2 cores; `--n 64` for
@@ -27,6 +28,7 @@ use common::shear::{self, ShearCase, ShearOutcome};
 use common::{Args, BoxResult, num, read_points, reference_dir, result};
 use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::io::plot::{Figure, LineStyle};
+use eulermembrane::membrane::BendingForm;
 use eulermembrane::simulation::Settings;
 use std::path::Path;
 
@@ -106,8 +108,12 @@ fn run() -> BoxResult<()> {
 fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
     fn settings<T: eulermembrane::Real>(args: &Args) -> Settings<T> {
         let (tangential_gs, bending_filter) = (args.flag("tangential-gs"), args.get("bending-filter", 0));
-        Settings { tangential_gs, bending_filter, ..Settings::default() }
+        let form: String = args.get("bending-form", "divergence".to_string());
+        // An unknown name falls back to the default; `simulate` checks it first.
+        let bending_form = BendingForm::from_name(&form).unwrap_or_default();
+        Settings { tangential_gs, bending_filter, bending_form, ..Settings::default() }
     }
+    BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
     if args.flag("f32") {
         shear::run::<f32>(case, settings(args), 0.05, vtk, false)
     } else {

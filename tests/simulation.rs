@@ -3,8 +3,9 @@
 
 use eulermembrane::Error;
 use eulermembrane::grid::{Boundary, Grid};
+use eulermembrane::interface::NormalScheme;
 use eulermembrane::interface::shapes::{Circle, Sphere};
-use eulermembrane::membrane::{NeoHookean, Skalak};
+use eulermembrane::membrane::{BendingForm, NeoHookean, Skalak};
 use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -164,6 +165,18 @@ fn bad_scenes_are_refused() {
     let settings = Settings { bending_filter: 9, ..Settings::default() };
     let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(1e-3).settings(settings).build();
     assert!(matches!(e, Err(Error::InvalidParameter { name: "bending_filter", .. })));
+    // The energy-gradient bending force with normals it cannot differentiate, or with the filter.
+    let energy = Settings { bending_form: BendingForm::EnergyGradient, ..Settings::default() };
+    let settings = Settings { normals: NormalScheme::Youngs, ..energy };
+    let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(1e-3).settings(settings).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "normals", .. })));
+    let settings = Settings { bending_filter: 2, ..energy };
+    let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(1e-3).settings(settings).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "bending_filter", .. })));
+    assert!(matches!(
+        BendingForm::from_name("pozrikidis"),
+        Err(Error::InvalidParameter { name: "bending_form", .. })
+    ));
     // epsilon outside (0, 1).
     for eps in [0.0, 1.0, -0.1, f64::NAN] {
         let settings = Settings { epsilon: eps, ..Settings::default() };

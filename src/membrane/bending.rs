@@ -53,6 +53,15 @@
 //! per step (from `n^{n+1}`, `δ^{n+1}`, `κ̃_R^{n+1}` in the paper's (2.35)) and
 //! [`Bending::forcing`] adds it. A scene without bending creates no [`Bending`] and computes or
 //! stores none of this: the work arrays are owned here and sized by the band.
+//!
+//! # Two forms
+//!
+//! This discrete `∇·(q̃ n)` is not the derivative of any discrete energy, and it can do work
+//! on the fluid that no energy pays for: a capsule at rest with its own shape as the reference
+//! is unstable from about ten cells per radius, at any time step (`docs/validation.md`,
+//! "Bending at rest"). [`BendingForm::EnergyGradient`] ([`Bending::evaluate_variational`])
+//! is the exact gradient of a discrete bending energy with the same moment `m̃`; it keeps that
+//! capsule at rest, and is the form to use from about ten cells per radius.
 
 use super::band::Band;
 use super::force::{face_divergence3, scatter_add};
@@ -112,6 +121,38 @@ pub struct Bending<T> {
     filter: usize,
     /// Work array of the filter: `m = m̃/δ` per band cell.
     moment: Vec<Mat3<T>>,
+    /// Work arrays of [`evaluate_variational`](Self::evaluate_variational).
+    energy: super::bending_energy::EnergyGradient<T>,
+    /// Halo whose lower faces carry `f` (2, or 4 after `evaluate_variational`).
+    face_halo: usize,
+}
+
+/// Which discrete bending force [`Bending`] evaluates.
+#[non_exhaustive]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BendingForm {
+    /// The paper's `∇·(q̃ n)` (2.16)-(2.17) ([`Bending::evaluate`]).
+    #[default]
+    Divergence,
+    /// The exact gradient of the discrete energy `Σ ½ E_b δ |κ − κ_R P|² h³` with the same
+    /// moment `m̃` ([`Bending::evaluate_variational`]; not in the paper). It cannot do work on
+    /// the fluid that the energy does not pay for: the capsule at rest that the paper's force
+    /// drives unstable from about ten cells per radius stays at rest.
+    EnergyGradient,
+}
+
+impl BendingForm {
+    /// The form named `divergence` or `energy` (command-line flags).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `bending_form` for any other name.
+    pub fn from_name(s: &str) -> Result<Self> {
+        match s {
+            "divergence" => Ok(BendingForm::Divergence),
+            "energy" => Ok(BendingForm::EnergyGradient),
+            _ => Err(Error::invalid("bending_form", s, "divergence or energy")),
+        }
+    }
 }
 
 /// The most passes [`Bending::with_filter`] accepts.
@@ -134,6 +175,8 @@ impl<T: Real> Bending<T> {
             f: Vec::new(),
             filter: 0,
             moment: Vec::new(),
+            energy: Default::default(),
+            face_halo: 2,
         })
     }
 
@@ -273,6 +316,7 @@ impl<T: Real> Bending<T> {
                 cell: [c[0] as usize, c[1] as usize, c[2] as usize],
             });
         }
+        self.face_halo = 2;
         self.generation = band.generation();
         Ok(())
     }
@@ -331,6 +375,75 @@ impl<T: Real> Bending<T> {
         });
     }
 
+    /// Evaluates the bending force of [`BendingForm::EnergyGradient`]: the exact gradient of the
+    /// discrete energy
+    ///
+    /// ```text
+    /// E_h(φ) = Σ_band ½ E_b δ |κ − κ_R P|² h³,   δ = |∇_h φ|,  κ = −P (∇_h n) P,  n = ∇_h ψ/|∇_h ψ|,
+    /// ```
+    ///
+    /// built from the same quantities as [`evaluate`](Self::evaluate) (its `∂E/∂κ` is the
+    /// moment `m̃ = E_b (δ κ − κ̃_R P)` of (2.17)), with `ψ = atanh(2φ − 1)` and the reference
+    /// mean curvature `κ_R = κ̃_R/δ` carried by the material. With `μ = ∂E_h/∂φ / h³` (by reverse
+    /// differentiation through `δ`, `ψ`, `n` and `κ`) and `ν = −tr m̃`, the force density on the
+    /// face between cells `c` and `c + e_d` is `½ Σ (μ ∂_d φ + ν ∂_d κ_R)` over the two cells
+    /// (central `∂_d`). Its power `Σ f·v h³` is exactly `−dE_h/dt` when `φ` and `κ_R` move by
+    /// `∂_t + v·∇` (central, cell velocity the mean of its faces); the crate's MTHINC transport
+    /// differs from that by its truncation error. So the force cannot feed a grid-scale mode
+    /// that the energy does not pay for, as the paper's `∇·(q̃ n)` does at rest from about ten
+    /// cells per radius.
+    ///
+    /// It is not Pozrikidis' force (2.7)-(2.10): that is not the gradient of an energy. For a
+    /// sphere the two agree on the uniform bending response; they differ in the forcing of
+    /// modes a rigid motion can absorb (a `cos θ` variation of `κ_R`: first order in the
+    /// amplitude for Pozrikidis, second order here) and in the tangential force (zero here when
+    /// `κ_R` is uniform along the surface). See `tests/membrane_grid.rs`.
+    ///
+    /// `phi` needs its ghosts filled; `fourth`: the fourth-order `∇ψ` of
+    /// [`crate::interface::NormalScheme::Atanh4`] (else the second-order one of `Atanh2`). The
+    /// force lives on the faces of `halo(4)`; the cost is a few passes over `halo(3)`.
+    ///
+    /// # Errors
+    /// As [`evaluate`](Self::evaluate).
+    pub fn evaluate_variational(
+        &mut self,
+        grid: &Grid<T>,
+        band: &Band<T>,
+        phi: &Field<T>,
+        kappa_r_tilde: &Field<T>,
+        fourth: bool,
+    ) -> Result<()> {
+        self.generation = 0;
+        if grid != &self.grid {
+            return Err(Error::invalid("grid", format!("{:?} cells", grid.n()), "the grid of Bending::new"));
+        }
+        band.matches(grid)?;
+        if phi.data.len() != grid.len() || kappa_r_tilde.data.len() != grid.len() {
+            return Err(Error::invalid(
+                "phi or kappa_r_tilde",
+                "a field of another grid",
+                "a field of the band's grid",
+            ));
+        }
+        self.energy.evaluate(grid, band, phi, kappa_r_tilde, self.eb, fourth, &mut self.f);
+        self.face_halo = 4;
+        if let Some(p) = self.f.iter().position(|f| !f.iter().all(|x| x.is_finite())) {
+            let c = band.coords(4)[p];
+            return Err(Error::NonFinite {
+                field: "bending force",
+                cell: [c[0] as usize, c[1] as usize, c[2] as usize],
+            });
+        }
+        self.generation = band.generation();
+        Ok(())
+    }
+
+    /// The discrete bending energy `E_h` of the last
+    /// [`evaluate_variational`](Self::evaluate_variational) (0 before one).
+    pub fn energy(&self) -> T {
+        self.energy.energy
+    }
+
     /// `m̃` of the band cell at `position` (an index into [`Band::cells`]).
     pub fn moment(&self, position: usize) -> Option<Mat3<T>> {
         self.m.get(position).copied()
@@ -385,6 +498,6 @@ impl<T: Real> Forcing<T> for BendingForcing<'_, T> {
             out.c.iter().all(|f| f.data.len() == self.b.grid.len()),
             "Bending: force field of another grid"
         );
-        scatter_add(self.band.halo(2), &self.b.f, out);
+        scatter_add(self.band.halo(self.b.face_halo), &self.b.f, out);
     }
 }

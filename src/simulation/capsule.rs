@@ -6,8 +6,8 @@ use super::scene::{Settings, SharedLaw};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::interface::geometry::{Band as PhiBand, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
-use crate::interface::{Advector, Geometry};
-use crate::membrane::{Band, Bending, InPlaneElasticity, StrainTransport, fill_projector};
+use crate::interface::{Advector, Geometry, NormalScheme};
+use crate::membrane::{Band, Bending, BendingForm, InPlaneElasticity, StrainTransport, fill_projector};
 use crate::{Real, Result};
 
 /// What is derived from `phi` at one time level.
@@ -37,6 +37,8 @@ pub(crate) struct Capsule<T: Real> {
     pub(crate) elastic: Option<InPlaneElasticity<T, SharedLaw<T>>>,
     pub(crate) strain: Option<StrainTransport<T>>,
     pub(crate) bending: Option<Bending<T>>,
+    /// Which bending force `bending` evaluates.
+    bending_form: BendingForm,
     /// Saved AB2 history of the advector (restored when a step fails).
     saved: (Option<T>, Vec<T>, Vec<T>),
 }
@@ -120,9 +122,27 @@ impl<T: Real> Capsule<T> {
                 None => None,
             },
             bending: match eb {
+                Some(eb) if settings.bending_form == BendingForm::EnergyGradient => {
+                    if !matches!(settings.normals, NormalScheme::Atanh2 | NormalScheme::Atanh4) {
+                        return Err(crate::Error::invalid(
+                            "normals",
+                            settings.normals.name(),
+                            "atanh2 or atanh4 with bending_form EnergyGradient",
+                        ));
+                    }
+                    if settings.bending_filter > 0 {
+                        return Err(crate::Error::invalid(
+                            "bending_filter",
+                            settings.bending_filter,
+                            "0 with bending_form EnergyGradient (the filter acts on the divergence form)",
+                        ));
+                    }
+                    Some(Bending::new(grid, eb)?)
+                }
                 Some(eb) => Some(Bending::new(grid, eb)?.with_filter(settings.bending_filter)?),
                 None => None,
             },
+            bending_form: settings.bending_form,
             saved: (None, Vec::new(), Vec::new()),
         })
     }
@@ -148,7 +168,16 @@ impl<T: Real> Capsule<T> {
             e.evaluate(grid, &next.band, gs, &next.normal, &next.delta, dt)?;
         }
         if let (Some(b), Some(kappa)) = (self.bending.as_mut(), next.kappa.as_ref()) {
-            b.evaluate(grid, &next.band, &next.normal, &next.delta, kappa)?;
+            match self.bending_form {
+                BendingForm::EnergyGradient => b.evaluate_variational(
+                    grid,
+                    &next.band,
+                    &next.phi,
+                    kappa,
+                    self.geometry.scheme() == NormalScheme::Atanh4,
+                )?,
+                _ => b.evaluate(grid, &next.band, &next.normal, &next.delta, kappa)?,
+            }
         }
         Ok(info.profile_cells)
     }

@@ -8,7 +8,7 @@ use crate::fluid::FlowConfig;
 use crate::grid::Grid;
 use crate::interface::shapes::{Shape, Smoothing};
 use crate::interface::{AdvectionParams, NormalScheme};
-use crate::membrane::{StrainAdvection, SurfaceLaw};
+use crate::membrane::{BendingForm, StrainAdvection, SurfaceLaw};
 use crate::{Error, Real, Result};
 use std::sync::Arc;
 
@@ -96,6 +96,11 @@ pub struct Settings<T> {
     /// grows about 7 times more slowly than with the paper's force; it still grows (see
     /// `docs/validation.md`, "Bending at rest"). Not in the paper.
     pub bending_filter: usize,
+    /// The discrete bending force. Default [`BendingForm::Divergence`] (the paper's
+    /// `∇·(q̃ n)`); [`BendingForm::EnergyGradient`] is the gradient of a discrete bending
+    /// energy, stable at rest where the paper's form is not (see `docs/validation.md`,
+    /// "Bending at rest"). It needs `normals` `Atanh2` or `Atanh4` and no `bending_filter`.
+    pub bending_form: BendingForm,
 }
 
 /// How the in-plane membrane stress enters the momentum predictor.
@@ -122,6 +127,7 @@ impl<T: Real> Default for Settings<T> {
             tangential_gs: false,
             strain_advection: StrainAdvection::default(),
             bending_filter: 0,
+            bending_form: BendingForm::Divergence,
         }
     }
 }
