@@ -1,7 +1,7 @@
 //! Bending of the membrane in the modified form (2.16)–(2.17) of the paper:
 //!
 //! ```text
-//! m̃ = E_b (δ κ − κ̃_R P),        q̃ = (∇·m̃)·P,        force density  ∇·(q̃ n),
+//! m̃ = E_b (δ κ − κ̃_R P),        q̃ = (∇·m̃)·P,        force density  ∇·(q̃ n_out),
 //! ```
 //!
 //! with `δ = |∇φ|` (2.26), `κ̃_R = δ κ_R` the convolved reference mean curvature (advected by
@@ -18,6 +18,23 @@
 //! - `κ_R = −½ tr(∇n_R)` (2.9b): `1/R` for a reference sphere of radius `R`; a flat reference is
 //!   `κ_R = 0`;
 //! - the force is added on the faces with a plus sign, as `∇·(δ τ)` in [`super::force`].
+//!
+//! # The sign of the force
+//!
+//! The force is `∇·(q̃ n_out)` with the **outward** normal `n_out = −n`, while `κ` is built
+//! from the inward `n` (positive for a sphere). Read with one normal for both, (2.9a) and
+//! (2.16) give the opposite sign, and that force *drives* bending instead of resisting it:
+//! for a flat membrane `z = ζ(x)` (`κ_R = 0`, `κ_xx = −ζ''` with the inward normal),
+//! `q = (E_b κ_xx)' = −E_b ζ'''` and `∇·(q n) = −E_b ζ'''' n_in = +E_b ζ'''' e_z`: a bump is
+//! pushed further out, at a rate growing like `k⁴`. The plate equation needs
+//! `f = −E_b ζ'''' e_z`, which is `∇·(q n_out)`: the paper's `n` in `q n` is the outward normal
+//! (the orientation under which `κ = −∇n` is negative for a sphere, and `κ − κ_R P` flips
+//! with it). Measured on a sphere of 8-16 cells per radius with an `l = 2` shape mode: the
+//! normal stiffness of this force is `+23.0` to `+23.7 E_b/R⁴`, against `λ(λ − 2) E_b/R⁴ = 24`
+//! (`λ = l(l + 1)`) of the moment law (2.8) in the continuum, and the same with a minus sign
+//! with the inward normal. With the inward normal a sphere at rest is unstable from about ten
+//! cells per radius, whatever the time step: the bending failures that `docs/validation.md`
+//! records before this was found. See `tests/membrane_grid.rs`.
 //!
 //! # The reference curvature is a field
 //!
@@ -293,11 +310,12 @@ impl<T: Real> Bending<T> {
             },
         );
 
-        // 3. ∇·(q̃ n) on the faces of halo(2).
+        // 3. ∇·(q̃ n_out) on the faces of halo(2), with the outward normal n_out = −n (see
+        // "The sign of the force" in the module docs).
         let q = &self.q;
-        // (q̃, n) at a cell, zero off halo(1); Q_ac = q̃_a n_c.
+        // (q̃, n_out) at a cell, zero off halo(1); Q_ac = q̃_a (n_out)_c.
         let qn = |p: usize| match band.position_in(p, 1) {
-            Some(b) => (q[b], nrm(p)),
+            Some(b) => (q[b], nrm(p).map(|x| -x)),
             None => ([T::zero(); 3], [T::zero(); 3]),
         };
         let comp = |v: &(Vec3<T>, Vec3<T>), a: usize, c: usize| v.0[a] * v.1[c];
