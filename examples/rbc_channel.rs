@@ -23,10 +23,8 @@
 //! an opt-in long run; works at reduced `--n`.
 //!
 //! Flags: `--n` (32; the paper uses 64, 128 for `many`), `--dt`, `--t-end`, `--alpha LIST`,
-//! `--case`, `--cells`, `--bending-form divergence|energy` (`Settings::bending_form`; `energy`
-//! keeps the N = 64 cell stable at `dt = 4e-4`, see `docs/validation.md`),
-//! `--bending-filter K` (passes of `Settings::bending_filter`, 0: the
-//! paper's force; 2 keeps the N = 64 cell from blowing up early, see `docs/validation.md`),
+//! `--case`, `--cells`, `--bending-form divergence|energy` (`Settings::bending_form`, default
+//! the paper's `divergence`),
 //! `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
 //! Run: `cargo run --release --example rbc_channel -- --n 32`.
@@ -47,13 +45,6 @@ use std::time::Instant;
 
 const L: f64 = 0.5;
 
-/// The bending force of the scenes: filter passes and form (`Settings`).
-#[derive(Clone, Copy)]
-struct Bend {
-    filter: usize,
-    form: BendingForm,
-}
-
 fn main() {
     common::exit_on_error(run());
 }
@@ -67,8 +58,8 @@ struct Params {
     alpha: f64,
     radius: f64,
     wall_axis: usize,
-    /// The bending force (`--bending-filter`, `--bending-form`).
-    bend: Bend,
+    /// The bending force (`--bending-form`).
+    bend: BendingForm,
 }
 
 const PAPER: Params = Params {
@@ -79,7 +70,7 @@ const PAPER: Params = Params {
     alpha: 40.0,
     radius: 0.17,
     wall_axis: 1,
-    bend: Bend { filter: 0, form: BendingForm::Divergence },
+    bend: BendingForm::Divergence,
 };
 
 fn run() -> BoxResult<()> {
@@ -89,21 +80,21 @@ fn run() -> BoxResult<()> {
     let case: String = args.get("case", "single".to_string());
     let vtk_every: f64 = args.get("vtk-every", 0.5);
     let form: String = args.get("bending-form", "divergence".to_string());
-    let filter = Bend { filter: args.get("bending-filter", 0), form: BendingForm::from_name(&form)? };
+    let bend = BendingForm::from_name(&form)?;
     match case.as_str() {
         "single" => {
             let alphas: String = args.get("alpha", "2,10,40".to_string());
             let alphas: Vec<f64> = alphas.split(',').map(|a| a.trim().parse()).collect::<Result<_, _>>()?;
-            single(n, args.get("dt", 0.001), args.get("t-end", 2.0), &alphas, filter, &out)
+            single(n, args.get("dt", 0.001), args.get("t-end", 2.0), &alphas, bend, &out)
         }
         "two1" | "two2" => {
             let z = if case == "two1" { [0.25, 0.25] } else { [0.23, 0.27] };
             let centres = vec![[0.125, 0.25, z[0]], [0.375, 0.25, z[1]]];
-            two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, filter, vtk_every, &out)
+            two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, bend, vtk_every, &out)
         }
         "many" => {
             let cells = args.get("cells", 8);
-            many(n, args.get("dt", 0.00025), args.get("t-end", 5.0), cells, filter, vtk_every, &out)
+            many(n, args.get("dt", 0.00025), args.get("t-end", 5.0), cells, bend, vtk_every, &out)
         }
         other => Err(format!("--case {other}: expected single, two1, two2 or many").into()),
     }
@@ -121,15 +112,11 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
     s.elasticity(Skalak::new(p.es, p.alpha)?)
         .bending(p.eb)
         .body_force([1.0, 0.0, 0.0])
-        .settings(Settings {
-            bending_filter: p.bend.filter,
-            bending_form: p.bend.form,
-            ..Settings::default()
-        })
+        .settings(Settings { bending_form: p.bend, ..Settings::default() })
         .build()
 }
 
-fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], filter: Bend, out: &Path) -> BoxResult<()> {
+fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], bend: BendingForm, out: &Path) -> BoxResult<()> {
     let steps = (t_end / dt).round() as usize;
     let mut fig =
         Figure::new(format!("surface area by (3.7), N = {n} (Fig. 12)")).x_label("t").y_label("s / s0");
@@ -139,7 +126,7 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], filter: Bend, out: &Pat
         .equal_aspect(true);
     let mut lines = Vec::new();
     for &alpha in alphas {
-        let p = Params { alpha, bend: filter, ..PAPER };
+        let p = Params { alpha, bend, ..PAPER };
         let mut sim = scene(n, &p, &[[0.25; 3]])?;
         eprintln!("rbc_channel single: alpha = {alpha}, {n}^3 cells, {steps} steps of dt = {dt}");
         let g = sim.grid().clone();
@@ -257,11 +244,11 @@ fn two(
     t_end: f64,
     case: &str,
     centres: &[[f64; 3]],
-    filter: Bend,
+    bend: BendingForm,
     vtk_every: f64,
     out: &Path,
 ) -> BoxResult<()> {
-    let p = Params { bend: filter, ..PAPER };
+    let p = Params { bend, ..PAPER };
     let mut sim = scene(n, &p, centres)?;
     let steps = (t_end / dt).round() as usize;
     eprintln!("rbc_channel {case}: {n}^3 cells, {steps} steps of dt = {dt}");
@@ -346,20 +333,12 @@ fn many(
     dt: f64,
     t_end: f64,
     cells: usize,
-    filter: Bend,
+    bend: BendingForm,
     vtk_every: f64,
     out: &Path,
 ) -> BoxResult<()> {
-    let p = Params {
-        mu_in: 0.5,
-        mu_out: 0.1,
-        es: 0.1,
-        eb: 5e-6,
-        alpha: 10.0,
-        radius: 0.06,
-        wall_axis: 2,
-        bend: filter,
-    };
+    let p =
+        Params { mu_in: 0.5, mu_out: 0.1, es: 0.1, eb: 5e-6, alpha: 10.0, radius: 0.06, wall_axis: 2, bend };
     // A lattice of cells away from the walls, two per row along x, staggered.
     let per = (cells as f64).sqrt().ceil() as usize;
     let centres: Vec<[f64; 3]> = (0..cells)

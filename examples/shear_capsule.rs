@@ -15,8 +15,7 @@
 //! Flags: `--ca` (0.05), `--n` (32; cells along x and z, N/2 along y; the radius is N/8
 //! cells), `--dt` (half the paper's `0.001 (128/N)^2`, see `common::shear`), `--t-end` (6), `--bending` (`E_b'`, 0 for
 //! none), `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
-//! `--sweep`, `--tangential-gs`, `--bending-filter K` (passes of `Settings::bending_filter`, 0),
-//! `--bending-form divergence|energy` (`Settings::bending_form`),
+//! `--sweep`, `--tangential-gs`, `--bending-form divergence|energy` (`Settings::bending_form`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
 //! Run: `cargo run --release --example shear_capsule` (about a minute on 2 cores; `--n 64` for
@@ -107,11 +106,11 @@ fn run() -> BoxResult<()> {
 /// Runs one case in the precision the flags ask for.
 fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
     fn settings<T: eulermembrane::Real>(args: &Args) -> Settings<T> {
-        let (tangential_gs, bending_filter) = (args.flag("tangential-gs"), args.get("bending-filter", 0));
+        let tangential_gs = args.flag("tangential-gs");
         let form: String = args.get("bending-form", "divergence".to_string());
         // An unknown name falls back to the default; `simulate` checks it first.
         let bending_form = BendingForm::from_name(&form).unwrap_or_default();
-        Settings { tangential_gs, bending_filter, bending_form, ..Settings::default() }
+        Settings { tangential_gs, bending_form, ..Settings::default() }
     }
     BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
     if args.flag("f32") {

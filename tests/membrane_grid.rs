@@ -450,7 +450,7 @@ fn reference_sphere_bending_force_converges_to_zero() {
 /// with the outward `n_out = e_r` (see "The sign of the force" in `membrane::bending`). Returns
 /// the measured over the exact moments `∫ f·e_r cos θ` and `∫ f·e_θ sin θ` (exact:
 /// `(2 E_b a/R³)(4πR²/3)` and `(E_b a/R³)(8πR²/3)`).
-fn bending_mode(radius: f64, filter: usize, form: BendingForm) -> (f64, f64) {
+fn bending_mode(radius: f64, form: BendingForm) -> (f64, f64) {
     let s = sphere(radius, Normals::Psi);
     let g = &s.grid;
     let mut band = Band::new(g, 0.01).unwrap();
@@ -465,7 +465,7 @@ fn bending_mode(radius: f64, filter: usize, form: BendingForm) -> (f64, f64) {
         kr.data[idx] = s.delta.data[idx] * (1.0 + a * d[2] / r) / r;
     }
     kr.fill_ghosts(g);
-    let mut b = Bending::new(g, eb).unwrap().with_filter(filter).unwrap();
+    let mut b = Bending::new(g, eb).unwrap();
     match form {
         BendingForm::EnergyGradient => b.evaluate_variational(g, &band, &s.phi, &kr, false).unwrap(),
         _ => b.evaluate(g, &band, &s.normal, &s.delta, &kr).unwrap(),
@@ -495,21 +495,8 @@ fn bending_mode(radius: f64, filter: usize, form: BendingForm) -> (f64, f64) {
 
 #[test]
 fn bending_force_of_a_curvature_mode() {
-    let (r, t) = bending_mode(12.0, 0, BendingForm::Divergence);
+    let (r, t) = bending_mode(12.0, BendingForm::Divergence);
     assert!((r - 1.0).abs() < 0.05 && (t - 1.0).abs() < 0.05, "normal {r:.4}, tangential {t:.4} (exact 1)");
-}
-
-/// Two passes of the moment filter (`Bending::with_filter`) keep the force of a smooth
-/// curvature mode within the same 5 % (the filter changes a smooth moment by `O(h^2)`); more
-/// passes than allowed are refused.
-#[test]
-fn filtered_bending_force_of_a_curvature_mode() {
-    let (r, t) = bending_mode(12.0, 2, BendingForm::Divergence);
-    println!("two passes: normal {r:.4}, tangential {t:.4} (exact 1)");
-    assert!((r - 1.0).abs() < 0.05 && (t - 1.0).abs() < 0.05, "normal {r:.4}, tangential {t:.4} (exact 1)");
-    let g = Grid::<f64>::periodic([8; 3], [0.0; 3], [1.0; 3]).unwrap();
-    let e = Bending::new(&g, 1.0).unwrap().with_filter(9).unwrap_err();
-    assert!(matches!(e, eulermembrane::Error::InvalidParameter { name: "bending_filter", .. }));
 }
 
 /// The energy-gradient force (`BendingForm::EnergyGradient`) of the same mode. The energy
@@ -521,7 +508,7 @@ fn filtered_bending_force_of_a_curvature_mode() {
 /// in units of Pozrikidis' (above), must be within the same 5 % of zero.
 #[test]
 fn energy_gradient_bending_force_of_a_curvature_mode() {
-    let (r, t) = bending_mode(12.0, 0, BendingForm::EnergyGradient);
+    let (r, t) = bending_mode(12.0, BendingForm::EnergyGradient);
     println!("energy gradient: normal {r:.4}, tangential {t:.4} (exact 0; Pozrikidis' 1)");
     assert!(r.abs() < 0.05 && t.abs() < 0.05, "normal {r:.4}, tangential {t:.4} (exact 0)");
 }
@@ -618,7 +605,7 @@ fn bending_resists_a_shape_mode() {
 fn bending_reference_table() {
     println!("Bending force of a curvature mode kappa_R = (1 + a cos theta)/r: measured/exact moments");
     for r in [8.0, 12.0, 16.0, 24.0] {
-        let (mr, mt) = bending_mode(r, 0, BendingForm::Divergence);
+        let (mr, mt) = bending_mode(r, BendingForm::Divergence);
         println!("R/h = {r:4}: normal {:+.3e}, tangential {:+.3e} (relative errors)", mr - 1.0, mt - 1.0);
     }
     println!("Bending force of a sphere in its reference state (kappa_R~ = delta kappa_R), eps = 0.01");

@@ -161,18 +161,11 @@ fn bad_scenes_are_refused() {
     // Non-positive bending modulus.
     let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(-1.0).build();
     assert!(matches!(e, Err(Error::InvalidParameter { name: "eb", .. })));
-    // Too many passes of the bending-moment filter.
-    let settings = Settings { bending_filter: 9, ..Settings::default() };
-    let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(1e-3).settings(settings).build();
-    assert!(matches!(e, Err(Error::InvalidParameter { name: "bending_filter", .. })));
-    // The energy-gradient bending force with normals it cannot differentiate, or with the filter.
+    // The energy-gradient bending force with normals it cannot differentiate.
     let energy = Settings { bending_form: BendingForm::EnergyGradient, ..Settings::default() };
     let settings = Settings { normals: NormalScheme::Youngs, ..energy };
     let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(1e-3).settings(settings).build();
     assert!(matches!(e, Err(Error::InvalidParameter { name: "normals", .. })));
-    let settings = Settings { bending_filter: 2, ..energy };
-    let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(1e-3).settings(settings).build();
-    assert!(matches!(e, Err(Error::InvalidParameter { name: "bending_filter", .. })));
     assert!(matches!(
         BendingForm::from_name("pozrikidis"),
         Err(Error::InvalidParameter { name: "bending_form", .. })

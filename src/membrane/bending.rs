@@ -73,12 +73,10 @@
 //!
 //! # Two forms
 //!
-//! This discrete `∇·(q̃ n)` is not the derivative of any discrete energy, and it can do work
-//! on the fluid that no energy pays for: a capsule at rest with its own shape as the reference
-//! is unstable from about ten cells per radius, at any time step (`docs/validation.md`,
-//! "Bending at rest"). [`BendingForm::EnergyGradient`] ([`Bending::evaluate_variational`])
-//! is the exact gradient of a discrete bending energy with the same moment `m̃`; it keeps that
-//! capsule at rest, and is the form to use from about ten cells per radius.
+//! [`BendingForm::EnergyGradient`] ([`Bending::evaluate_variational`]) is the exact gradient
+//! of a discrete bending energy built from the same moment `m̃`: its power balances the
+//! energy's rate of change, so no discrete error can feed a mode. It is the gradient of
+//! `∫ ½ E_b |κ − κ_R P|² dA`, which is not Pozrikidis' model: see its docs.
 
 use super::band::Band;
 use super::force::{face_divergence3, scatter_add};
@@ -134,10 +132,6 @@ pub struct Bending<T> {
     q: Vec<Vec3<T>>,
     /// Face force per cell of `halo(2)` (on its three lower faces).
     f: Vec<[T; 3]>,
-    /// Passes of the moment filter ([`with_filter`](Self::with_filter)); 0: none.
-    filter: usize,
-    /// Work array of the filter: `m = m̃/δ` per band cell.
-    moment: Vec<Mat3<T>>,
     /// Work arrays of [`evaluate_variational`](Self::evaluate_variational).
     energy: super::bending_energy::EnergyGradient<T>,
     /// Halo whose lower faces carry `f` (2, or 4 after `evaluate_variational`).
@@ -153,8 +147,7 @@ pub enum BendingForm {
     Divergence,
     /// The exact gradient of the discrete energy `Σ ½ E_b δ |κ − κ_R P|² h³` with the same
     /// moment `m̃` ([`Bending::evaluate_variational`]; not in the paper). It cannot do work on
-    /// the fluid that the energy does not pay for: the capsule at rest that the paper's force
-    /// drives unstable from about ten cells per radius stays at rest.
+    /// the fluid that the energy does not pay for.
     EnergyGradient,
 }
 
@@ -172,9 +165,6 @@ impl BendingForm {
     }
 }
 
-/// The most passes [`Bending::with_filter`] accepts.
-pub const MAX_FILTER_PASSES: usize = 8;
-
 impl<T: Real> Bending<T> {
     /// Bending with modulus `eb` (`E_b`) on `grid`. Nothing is evaluated or allocated yet.
     ///
@@ -190,40 +180,9 @@ impl<T: Real> Bending<T> {
             m: Vec::new(),
             q: Vec::new(),
             f: Vec::new(),
-            filter: 0,
-            moment: Vec::new(),
             energy: Default::default(),
             face_halo: 2,
         })
-    }
-
-    /// The same bending with `passes` passes of a binomial filter on the bending moment (not in
-    /// the paper; 0, the default, is the paper's force). Each pass replaces the moment
-    /// `m = m̃/δ` of a band cell by the `(1, 2, 1)³`-weighted mean over its band neighbours
-    /// (weights renormalised where the 3×3×3 block leaves the band), projected `P m P`; then
-    /// `m̃ = δ m`. `m` is constant along the normals in the continuum and smooth along the
-    /// surface, so a pass changes it by `O(h²)`; it damps the grid-scale oscillation of `m̃` that
-    /// makes a capsule at rest with bending unstable from about 10 cells per radius (8 in the
-    /// shear case of Sec. 3.3.2). It slows that instability (about 7 times with 2 passes), it
-    /// does not remove it (see `docs/validation.md`, "Bending at rest").
-    ///
-    /// # Errors
-    /// [`Error::InvalidParameter`] naming `bending_filter` above [`MAX_FILTER_PASSES`].
-    pub fn with_filter(mut self, passes: usize) -> Result<Self> {
-        if passes > MAX_FILTER_PASSES {
-            return Err(Error::invalid(
-                "bending_filter",
-                passes,
-                "at most MAX_FILTER_PASSES = 8 passes (0: no filter)",
-            ));
-        }
-        self.filter = passes;
-        Ok(self)
-    }
-
-    /// Passes of the moment filter (0: none).
-    pub fn filter_passes(&self) -> usize {
-        self.filter
     }
 
     /// The bending modulus `E_b`.
@@ -282,10 +241,6 @@ impl<T: Real> Bending<T> {
             },
         );
 
-        if self.filter > 0 {
-            self.filter_moment(band, normal, delta);
-        }
-
         // 2. q̃ = (∇·m̃)·P on halo(1).
         let m = &self.m;
         let zero3 = [[T::zero(); 3]; 3];
@@ -339,60 +294,6 @@ impl<T: Real> Bending<T> {
         Ok(())
     }
 
-    /// The passes of [`with_filter`](Self::with_filter) on `m̃` (band cells).
-    fn filter_moment(&mut self, band: &Band<T>, normal: &[Field<T>; 3], delta: &Field<T>) {
-        let st = self.grid.strides();
-        let cells = band.cells();
-        let nrm = |idx: usize| [normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]];
-        let inv_delta = |idx: usize| {
-            let d = delta.data[idx];
-            if d > T::zero() { T::one() / d } else { T::zero() }
-        };
-        self.moment.resize(cells.len(), [[T::zero(); 3]; 3]);
-        self.moment.par_iter_mut().zip(self.m.par_iter().zip(cells.par_iter())).for_each(
-            |(mo, (mt, &idx))| {
-                let w = inv_delta(idx);
-                *mo = std::array::from_fn(|i| std::array::from_fn(|j| mt[i][j] * w));
-            },
-        );
-        for _ in 0..self.filter {
-            // Smoothed moment into `m` (as scratch), then back into `moment`.
-            let prev = &self.moment;
-            self.m.par_iter_mut().zip(cells.par_iter()).with_min_len(MIN_CELLS_PER_TASK).for_each(
-                |(out, &idx)| {
-                    let mut acc = [[T::zero(); 3]; 3];
-                    let mut wsum = T::zero();
-                    for dz in -1isize..=1 {
-                        for dy in -1isize..=1 {
-                            for dx in -1isize..=1 {
-                                let off = dx * st[0] as isize + dy * st[1] as isize + dz * st[2] as isize;
-                                let Some(c) = band.position_in(idx.wrapping_add_signed(off), 0) else {
-                                    continue;
-                                };
-                                let w = T::lit(((2 - dx.abs()) * (2 - dy.abs()) * (2 - dz.abs())) as f64);
-                                for i in 0..3 {
-                                    for j in 0..3 {
-                                        acc[i][j] += w * prev[c][i][j];
-                                    }
-                                }
-                                wsum += w;
-                            }
-                        }
-                    }
-                    let p = sym_to_mat(&projector(&nrm(idx)));
-                    let mean: Mat3<T> = std::array::from_fn(|i| std::array::from_fn(|j| acc[i][j] / wsum));
-                    *out = matmul(&matmul(&p, &mean), &p);
-                },
-            );
-            std::mem::swap(&mut self.m, &mut self.moment);
-        }
-        let (m, moment) = (&mut self.m, &self.moment);
-        m.par_iter_mut().zip(moment.par_iter().zip(cells.par_iter())).for_each(|(mt, (mo, &idx))| {
-            let d = delta.data[idx];
-            *mt = std::array::from_fn(|i| std::array::from_fn(|j| d * mo[i][j]));
-        });
-    }
-
     /// Evaluates the bending force of [`BendingForm::EnergyGradient`]: the exact gradient of the
     /// discrete energy
     ///
@@ -407,15 +308,16 @@ impl<T: Real> Bending<T> {
     /// face between cells `c` and `c + e_d` is `½ Σ (μ ∂_d φ + ν ∂_d κ_R)` over the two cells
     /// (central `∂_d`). Its power `Σ f·v h³` is exactly `−dE_h/dt` when `φ` and `κ_R` move by
     /// `∂_t + v·∇` (central, cell velocity the mean of its faces); the crate's MTHINC transport
-    /// differs from that by its truncation error. So the force cannot feed a grid-scale mode
-    /// that the energy does not pay for, as the paper's `∇·(q̃ n)` does at rest from about ten
-    /// cells per radius.
+    /// differs from that by its truncation error. So the force cannot feed a mode that the
+    /// energy does not pay for.
     ///
-    /// It is not Pozrikidis' force (2.7)-(2.10): that is not the gradient of an energy. For a
-    /// sphere the two agree on the uniform bending response; they differ in the forcing of
-    /// modes a rigid motion can absorb (a `cos θ` variation of `κ_R`: first order in the
-    /// amplitude for Pozrikidis, second order here) and in the tangential force (zero here when
-    /// `κ_R` is uniform along the surface). See `tests/membrane_grid.rs`.
+    /// It is not Pozrikidis' force (2.7)-(2.10), which is not the gradient of an energy. The two
+    /// agree for short waves (`E_b k⁴` on a flat membrane); on a sphere the normal stiffness of
+    /// a shape mode `l` is `(λ − 1)(λ − 2) E_b/R⁴` here against `λ(λ − 2) E_b/R⁴` for
+    /// Pozrikidis (`λ = l(l + 1)`: 20 against 24 for `l = 2`, the mode of a capsule in shear);
+    /// a `cos θ` variation of `κ_R` is forced at second order in its amplitude here, at first
+    /// order by Pozrikidis; the tangential force is zero here when `κ_R` is uniform along the
+    /// surface. See `tests/membrane_grid.rs`.
     ///
     /// `phi` needs its ghosts filled; `fourth`: the fourth-order `∇ψ` of
     /// [`crate::interface::NormalScheme::Atanh4`] (else the second-order one of `Atanh2`). The

@@ -1,10 +1,9 @@
 //! The bending force as the exact gradient of a discrete bending energy (not in the paper).
 //!
 //! The paper's force `∇·(q̃ n)` (2.16)-(2.17) is a chain of four discrete derivatives that is
-//! not the derivative of any discrete energy. At rest it can do positive work on the fluid:
-//! a capsule at rest with bending and its own shape as the reference is unstable from about
-//! ten cells per radius, whatever the time step (`docs/validation.md`, "Bending at rest").
-//! This module builds the force the other way round. It takes the discrete energy
+//! not the derivative of any discrete energy, so nothing bounds the work it does on the fluid
+//! by an energy. This module builds the force the other way round. It takes the discrete
+//! energy
 //!
 //! ```text
 //! E_h(φ) = Σ_band ½ E_b δ |κ − κ_R P|² h³,     δ = |∇_h φ|,  κ = −P (∇_h n) P,  n = ∇_h ψ/|∇_h ψ|,

@@ -130,16 +130,9 @@ impl<T: Real> Capsule<T> {
                             "atanh2 or atanh4 with bending_form EnergyGradient",
                         ));
                     }
-                    if settings.bending_filter > 0 {
-                        return Err(crate::Error::invalid(
-                            "bending_filter",
-                            settings.bending_filter,
-                            "0 with bending_form EnergyGradient (the filter acts on the divergence form)",
-                        ));
-                    }
                     Some(Bending::new(grid, eb)?)
                 }
-                Some(eb) => Some(Bending::new(grid, eb)?.with_filter(settings.bending_filter)?),
+                Some(eb) => Some(Bending::new(grid, eb)?),
                 None => None,
             },
             bending_form: settings.bending_form,

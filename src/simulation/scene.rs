@@ -90,16 +90,10 @@ pub struct Settings<T> {
     /// [`StrainAdvection::Upwind3`] (the paper's); [`StrainAdvection::Upwind5`] is more accurate
     /// and less dissipative.
     pub strain_advection: StrainAdvection,
-    /// Passes of the binomial filter on the bending moment (`membrane::Bending::with_filter`),
-    /// at most `membrane::bending::MAX_FILTER_PASSES`. Default 0 (the paper's force). With 2
-    /// passes the spurious flow of a capsule at rest with bending at 12.8 cells per radius
-    /// grows about 7 times more slowly than with the paper's force; it still grows (see
-    /// `docs/validation.md`, "Bending at rest"). Not in the paper.
-    pub bending_filter: usize,
     /// The discrete bending force. Default [`BendingForm::Divergence`] (the paper's
-    /// `∇·(q̃ n)`); [`BendingForm::EnergyGradient`] is the gradient of a discrete bending
-    /// energy, stable at rest where the paper's form is not (see `docs/validation.md`,
-    /// "Bending at rest"). It needs `normals` `Atanh2` or `Atanh4` and no `bending_filter`.
+    /// `∇·(q̃ n)` (2.16)); [`BendingForm::EnergyGradient`] is the exact gradient of a discrete
+    /// bending energy with the same moment (its power balances the energy; a slightly different
+    /// continuum model, see its docs). It needs `normals` `Atanh2` or `Atanh4`. Not in the paper.
     pub bending_form: BendingForm,
 }
 
@@ -126,7 +120,6 @@ impl<T: Real> Default for Settings<T> {
             coupling: MembraneCoupling::default(),
             tangential_gs: false,
             strain_advection: StrainAdvection::default(),
-            bending_filter: 0,
             bending_form: BendingForm::Divergence,
         }
     }
