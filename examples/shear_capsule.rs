@@ -123,8 +123,8 @@ fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResu
 /// Prints the RESULT line of a run; returns the reference `D` and the relative error (NaN
 /// where there is no reference).
 fn report(case: &ShearCase, o: &ShearOutcome) -> (f64, f64) {
-    let d_ref = if case.eb_prime == 0.0 && case.lambda == 1.0 {
-        shear::reference_d(case.ca).unwrap_or(f64::NAN)
+    let d_ref = if case.lambda == 1.0 {
+        shear::reference_d(case.ca, case.eb_prime).unwrap_or(f64::NAN)
     } else {
         f64::NAN
     };

@@ -26,9 +26,20 @@ pub const MU: f64 = 100.0;
 /// flow, viscosity ratio 1: `(Ca, D)`.
 pub const LATE_TIME_D: [(f64, f64); 4] = [(0.025, 0.150), (0.05, 0.261), (0.1, 0.384), (0.2, 0.500)];
 
-/// The published late-time `D` at `ca`, if there is one.
-pub fn reference_d(ca: f64) -> Option<f64> {
-    LATE_TIME_D.iter().find(|(c, _)| (c / ca - 1.0).abs() < 1e-9).map(|&(_, d)| d)
+/// Late-time Taylor deformation with bending, Pozrikidis (2001), boundary elements (mean of
+/// `../shared/reference/shear_bending/pozrikidis_2001_ca_0.05_eb_0.0375.csv` over `t` = 1-1.8;
+/// published spread 0.13-0.165): `(Ca, E_b', D)`.
+pub const BENDING_LATE_TIME_D: [(f64, f64, f64); 1] = [(0.05, 0.0375, 0.143)];
+
+/// The published late-time `D` at `ca` and reduced bending modulus `eb_prime` (0: none), if
+/// there is one.
+pub fn reference_d(ca: f64, eb_prime: f64) -> Option<f64> {
+    let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-9;
+    if eb_prime == 0.0 {
+        LATE_TIME_D.iter().find(|(c, _)| close(*c, ca)).map(|&(_, d)| d)
+    } else {
+        BENDING_LATE_TIME_D.iter().find(|(c, e, _)| close(*c, ca) && close(*e, eb_prime)).map(|&(_, _, d)| d)
+    }
 }
 
 /// One shear-flow run.
