@@ -13,8 +13,9 @@
 //! `sweep.csv` and the plot `sweep.svg` of all histories with the references.
 //!
 //! Flags: `--ca` (0.05), `--n` (32; cells along x and z, N/2 along y; the radius is N/8
-//! cells), `--dt` (half the paper's `0.001 (128/N)^2`, see `common::shear`), `--t-end` (6), `--bending` (`E_b'`, 0 for
-//! none), `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
+//! cells), `--dt` (half the paper's `0.001 (128/N)^2`, and within the bending rule with
+//! `--bending`; see `common::shear`), `--t-end` (6), `--bending` (`E_b'`, 0 for none),
+//! `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
 //! `--sweep`, `--tangential-gs`, `--bending-form divergence|energy` (`Settings::bending_form`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
@@ -41,12 +42,13 @@ fn run() -> BoxResult<()> {
     let args = Args::parse();
     let out = args.out_dir("shear_capsule");
     let n: usize = args.get("n", 32);
+    let (ca, eb_prime, lambda) = (args.get("ca", 0.05), args.get("bending", 0.0), args.get("lambda", 1.0));
     let base = ShearCase {
         n,
-        ca: args.get("ca", 0.05),
-        eb_prime: args.get("bending", 0.0),
-        lambda: args.get("lambda", 1.0),
-        dt: args.get("dt", ShearCase::default_dt(n)),
+        ca,
+        eb_prime,
+        lambda,
+        dt: args.get("dt", ShearCase::default_dt(n, ca, eb_prime, lambda)),
         t_end: args.get("t-end", 6.0),
     };
     let refdir: Option<std::path::PathBuf> = args.opt("reference");
