@@ -107,18 +107,15 @@ fn run() -> BoxResult<()> {
 
 /// Runs one case in the precision the flags ask for.
 fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
-    fn settings<T: eulermembrane::Real>(args: &Args) -> Settings<T> {
-        let tangential_gs = args.flag("tangential-gs");
-        let form: String = args.get("bending-form", "divergence".to_string());
-        // An unknown name falls back to the default; `simulate` checks it first.
-        let bending_form = BendingForm::from_name(&form).unwrap_or_default();
+    fn settings<T: eulermembrane::Real>(tangential_gs: bool, bending_form: BendingForm) -> Settings<T> {
         Settings { tangential_gs, bending_form, ..Settings::default() }
     }
-    BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
+    let tangential_gs = args.flag("tangential-gs");
+    let form = BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
     if args.flag("f32") {
-        shear::run::<f32>(case, settings(args), 0.05, vtk, false)
+        shear::run::<f32>(case, settings(tangential_gs, form), 0.05, vtk, false)
     } else {
-        shear::run::<f64>(case, settings(args), 0.05, vtk, false)
+        shear::run::<f64>(case, settings(tangential_gs, form), 0.05, vtk, false)
     }
 }
 

@@ -208,11 +208,7 @@ impl<T: Real> Bending<T> {
         delta: &Field<T>,
         kappa_r_tilde: &Field<T>,
     ) -> Result<()> {
-        self.generation = 0;
-        if grid != &self.grid {
-            return Err(Error::invalid("grid", format!("{:?} cells", grid.n()), "the grid of Bending::new"));
-        }
-        band.matches(grid)?;
+        self.begin(grid, band)?;
         let len = grid.len();
         if normal.iter().any(|f| f.data.len() != len) {
             return Err(Error::invalid("normal", "a field of another grid", "a field of the band's grid"));
@@ -282,14 +278,29 @@ impl<T: Real> Bending<T> {
                 *fo = face_divergence3(&st, &ih, idx, qn, comp);
             },
         );
+        self.finish(band, 2)
+    }
+
+    /// Common entry of the evaluations: invalidates the last force and checks `grid` and `band`.
+    fn begin(&mut self, grid: &Grid<T>, band: &Band<T>) -> Result<()> {
+        self.generation = 0;
+        if grid != &self.grid {
+            return Err(Error::invalid("grid", format!("{:?} cells", grid.n()), "the grid of Bending::new"));
+        }
+        band.matches(grid)
+    }
+
+    /// Common end of the evaluations: refuses a non-finite face force (per cell of
+    /// `halo(face_halo)`), then records where the force lives and the band it belongs to.
+    fn finish(&mut self, band: &Band<T>, face_halo: usize) -> Result<()> {
         if let Some(p) = self.f.iter().position(|f| !f.iter().all(|x| x.is_finite())) {
-            let c = band.coords(2)[p];
+            let c = band.coords(face_halo)[p];
             return Err(Error::NonFinite {
                 field: "bending force",
                 cell: [c[0] as usize, c[1] as usize, c[2] as usize],
             });
         }
-        self.face_halo = 2;
+        self.face_halo = face_halo;
         self.generation = band.generation();
         Ok(())
     }
@@ -333,11 +344,7 @@ impl<T: Real> Bending<T> {
         kappa_r_tilde: &Field<T>,
         fourth: bool,
     ) -> Result<()> {
-        self.generation = 0;
-        if grid != &self.grid {
-            return Err(Error::invalid("grid", format!("{:?} cells", grid.n()), "the grid of Bending::new"));
-        }
-        band.matches(grid)?;
+        self.begin(grid, band)?;
         if phi.data.len() != grid.len() || kappa_r_tilde.data.len() != grid.len() {
             return Err(Error::invalid(
                 "phi or kappa_r_tilde",
@@ -346,16 +353,7 @@ impl<T: Real> Bending<T> {
             ));
         }
         self.energy.evaluate(grid, band, phi, kappa_r_tilde, self.eb, fourth, &mut self.f);
-        self.face_halo = 4;
-        if let Some(p) = self.f.iter().position(|f| !f.iter().all(|x| x.is_finite())) {
-            let c = band.coords(4)[p];
-            return Err(Error::NonFinite {
-                field: "bending force",
-                cell: [c[0] as usize, c[1] as usize, c[2] as usize],
-            });
-        }
-        self.generation = band.generation();
-        Ok(())
+        self.finish(band, 4)
     }
 
     /// The discrete bending energy `E_h` of the last

@@ -93,6 +93,16 @@ impl<T: Real> Capsule<T> {
     ) -> Result<Self> {
         let (smoothing, epsilon) = (&settings.smoothing, settings.epsilon);
         let bending = eb.is_some();
+        if bending
+            && settings.bending_form == BendingForm::EnergyGradient
+            && !matches!(settings.normals, NormalScheme::Atanh2 | NormalScheme::Atanh4)
+        {
+            return Err(crate::Error::invalid(
+                "normals",
+                settings.normals.name(),
+                "atanh2 or atanh4 with bending_form EnergyGradient",
+            ));
+        }
         let mut cur = Level::zeros(grid, bending, epsilon)?;
         if bending {
             let (phi, kappa) = smoothed_fields(grid, shape, smoothing)?;
@@ -122,16 +132,6 @@ impl<T: Real> Capsule<T> {
                 None => None,
             },
             bending: match eb {
-                Some(eb) if settings.bending_form == BendingForm::EnergyGradient => {
-                    if !matches!(settings.normals, NormalScheme::Atanh2 | NormalScheme::Atanh4) {
-                        return Err(crate::Error::invalid(
-                            "normals",
-                            settings.normals.name(),
-                            "atanh2 or atanh4 with bending_form EnergyGradient",
-                        ));
-                    }
-                    Some(Bending::new(grid, eb)?)
-                }
                 Some(eb) => Some(Bending::new(grid, eb)?),
                 None => None,
             },
