@@ -10,6 +10,7 @@
 //! | surface modes (3.2)-(3.4) | `R_{n,m} = sum delta w Y_{n,m}(theta, varphi) dx dy dz` | [`surface_modes`] |
 //! | Taylor deformation (Sec. 3.3.1) | `D = (L - B)/(L + B)` of an ellipse fitted to `phi = 1/2` | [`taylor_deformation`] |
 //! | energy budget (Sec. 3.2) | `E_kin + E_el + int mu grad v : grad v dt - int v.F dt` | [`EnergyBudget`] |
+//! | membrane velocity on a mode | `c = sum delta v.m / sum delta m.m` | [`surface_velocity_projection`] |
 //! | velocity profiles (Fig. 17) | `<u>(y)` averaged over x (and z) | [`streamwise_profile`] |
 //!
 //! Conventions shared by every function here:
@@ -36,6 +37,7 @@
 
 pub mod area;
 pub mod energy;
+pub mod mobility;
 pub mod modes;
 pub mod profile;
 mod reduce;
@@ -47,6 +49,7 @@ pub use energy::{
     DissipationForm, EnergyBudget, EnergySample, EnergyState, StepIntegrals, body_force_power,
     elastic_energy, kinetic_energy, viscous_dissipation,
 };
+pub use mobility::surface_velocity_projection;
 pub use modes::{ModeWeight, SurfaceModes, mode_amplitudes, normalized_legendre, surface_modes};
 pub use profile::{ProfileAxes, Span, streamwise_profile};
 pub use taylor::{

@@ -1,0 +1,174 @@
+//! How fast the smoothed membrane moves under a prescribed surface force, against the Stokes
+//! solution of a sharp membrane: the discrete *mobility* of the full Eulerian coupling, and
+//! why a capsule needs many cells per radius.
+//!
+//! A sphere of radius `a = 1` in a periodic box `[-4, 4]^3` of fluid (`rho = 1`, `mu = 100` on
+//! both sides, `Re << 1`), no elasticity, and one of two `l = 2` surface forces (per unit area,
+//! applied as `delta f` by [`Scene::surface_force`]), with `Y = 2 x z / r^2`:
+//!
+//! - *normal*: `f = g Y e_r`. Stokes: `u_r = (4/35) g a Y / mu` on the surface (the single-layer
+//!   potential for equal viscosities; Taylor's relaxation time of a drop of equal viscosity,
+//!   `tau = 35 mu a / (16 sigma)`, is the same number);
+//! - *tangential*: `f = g grad_s Y`. Stokes: `u_t = (1/7) g a grad_s Y / mu` and
+//!   `u_r = (6/35) g a Y / mu`.
+//!
+//! The flow starts at rest and is stepped (`dt = h^2 rho / mu`, viscous number 1) until the
+//! projections change by less than 1e-4 per 40 steps (at most `--steps`). The membrane's
+//! velocity is the `delta`-weighted projection of the cell-centred velocity
+//! ([`surface_velocity_projection`]): the velocity every membrane field of the method is
+//! carried with. Ratios below 1 mean a membrane that responds more slowly than a sharp one.
+//!
+//! The tangential velocity of a sharp membrane sits on a kink of the velocity profile (the
+//! shear-stress jump `g grad_s Y`), while the normal velocity is smooth across it; averaging over
+//! a band of width `w` lowers the former by `O(w / a)` with a large constant (the kink's slope is
+//! `g / mu` against a surface value of `g a / (7 mu)`). That is the coarse-grid softness of the
+//! capsules in shear (`docs/validation.md`).
+//!
+//! Flags: `--n LIST` (24,32, about a minute; the table of `docs/validation.md` is
+//! `--n 24,32,48,64`, about 6 minutes; cells per side, `a / h = N / 8`), `--beta B` (sharpness of the
+//! `phi` profile, initial and advected; 1, the paper's), `--steps` (400), `--out DIR`
+//! (`out/surface_mobility`: `mobility.csv`, `mobility.svg`).
+//! Prints `RESULT n=... cells_per_radius=... normal=... tangential=... tangential_normal=...
+//! wall_s=...` per N (each the ratio to the Stokes value).
+//!
+//! Run: `cargo run --release --example surface_mobility`.
+
+mod common;
+
+use common::{Args, BoxResult, num, result};
+use eulermembrane::diagnostics::surface_velocity_projection;
+use eulermembrane::grid::{Boundary, Grid};
+use eulermembrane::interface::shapes::Sphere;
+use eulermembrane::io::csv::write_columns;
+use eulermembrane::io::plot::Figure;
+use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use std::time::Instant;
+
+const MU: f64 = 100.0;
+const HALF: f64 = 4.0;
+
+fn main() {
+    common::exit_on_error(run());
+}
+
+/// `Y = 2 x z / r^2` at the unit vector `e`.
+fn y2(e: [f64; 3]) -> f64 {
+    2.0 * e[0] * e[2]
+}
+
+/// The unit vector from the sphere's centre (the origin) towards `x`.
+fn radial(x: [f64; 3]) -> [f64; 3] {
+    let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt().max(1e-12);
+    x.map(|c| c / r)
+}
+
+/// The normal mode `Y e_r`.
+fn normal_mode(x: [f64; 3]) -> [f64; 3] {
+    let e = radial(x);
+    let y = y2(e);
+    e.map(|c| y * c)
+}
+
+/// The tangential mode `grad_s Y` on the unit sphere, `(2 e_z, 0, 2 e_x) - 2 Y e`.
+fn tangential_mode(x: [f64; 3]) -> [f64; 3] {
+    let e = radial(x);
+    let y = y2(e);
+    [2.0 * e[2] - 2.0 * y * e[0], -2.0 * y * e[1], 2.0 * e[0] - 2.0 * y * e[2]]
+}
+
+/// The scene with the surface force `mode` (amplitude `g = 1`).
+fn scene(n: usize, beta: f64, mode: fn([f64; 3]) -> [f64; 3]) -> eulermembrane::Result<Simulation<f64>> {
+    let grid = Grid::new([n; 3], [-HALF; 3], [HALF; 3], [[Boundary::Periodic; 2]; 3])?;
+    let mut settings = Settings::default();
+    settings.advection.beta = beta;
+    settings.smoothing.beta = beta;
+    Scene::new(grid, Phase::new(1.0, MU)?)
+        .capsule(Sphere::new([0.0; 3], 1.0)?)
+        .surface_force(move |x, _| mode(x))
+        .settings(settings)
+        .build()
+}
+
+/// Steps the scene with force `force` until the projections on `modes` settle; returns them.
+fn settle(
+    n: usize,
+    beta: f64,
+    max_steps: usize,
+    force: fn([f64; 3]) -> [f64; 3],
+    modes: [fn([f64; 3]) -> [f64; 3]; 2],
+) -> BoxResult<[f64; 2]> {
+    let mut sim = scene(n, beta, force)?;
+    let h = 2.0 * HALF / n as f64;
+    let dt = h * h / MU;
+    let mut last = [f64::NAN; 2];
+    for s in 1..=max_steps {
+        sim.step(dt)?;
+        if s % 40 == 0 || s == max_steps {
+            let delta = sim.delta(0)?;
+            let c = [
+                surface_velocity_projection(sim.grid(), sim.velocity(), delta, modes[0])?,
+                surface_velocity_projection(sim.grid(), sim.velocity(), delta, modes[1])?,
+            ];
+            let settled = (0..2).all(|i| (c[i] - last[i]).abs() <= 1e-4 * c[i].abs().max(1e-30));
+            eprintln!("  step {s}: projections {:.5e} {:.5e}", c[0], c[1]);
+            last = c;
+            if settled {
+                break;
+            }
+        }
+    }
+    Ok(last)
+}
+
+fn run() -> BoxResult<()> {
+    let args = Args::parse();
+    let out = args.out_dir("surface_mobility");
+    let ns: String = args.get("n", "24,32".to_string());
+    let ns: Vec<usize> = ns.split(',').map(|s| s.trim().parse()).collect::<Result<_, _>>()?;
+    let beta: f64 = args.get("beta", 1.0);
+    let max_steps: usize = args.get("steps", 400);
+    let (mut cpr, mut normal, mut tangential, mut tan_normal) = (vec![], vec![], vec![], vec![]);
+    for &n in &ns {
+        if n < 16 || n % 2 != 0 {
+            return Err(format!("--n {n}: expected even numbers of cells >= 16").into());
+        }
+        eprintln!("surface_mobility: {n}^3 cells, {} cells per radius, beta = {beta}", n / 8);
+        let clock = Instant::now();
+        // Stokes values per g a / mu.
+        let [un, _] = settle(n, beta, max_steps, normal_mode, [normal_mode, tangential_mode])?;
+        let [ur, ut] = settle(n, beta, max_steps, tangential_mode, [normal_mode, tangential_mode])?;
+        let ratios = [un * MU / (4.0 / 35.0), ut * MU / (1.0 / 7.0), ur * MU / (6.0 / 35.0)];
+        result(&[
+            ("n", n.to_string()),
+            ("cells_per_radius", (n / 8).to_string()),
+            ("beta", beta.to_string()),
+            ("normal", num(ratios[0])),
+            ("tangential", num(ratios[1])),
+            ("tangential_normal", num(ratios[2])),
+            ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
+        ]);
+        cpr.push(n as f64 / 8.0);
+        normal.push(ratios[0]);
+        tangential.push(ratios[1]);
+        tan_normal.push(ratios[2]);
+    }
+    write_columns(
+        out.join("mobility.csv"),
+        &[
+            ("cells_per_radius", &cpr),
+            ("normal", &normal),
+            ("tangential", &tangential),
+            ("tangential_normal", &tan_normal),
+        ],
+    )?;
+    let mut fig = Figure::new(format!("membrane velocity / Stokes value, l = 2 forces, beta = {beta}"))
+        .x_label("cells per radius a/h")
+        .y_label("ratio");
+    fig.line_markers(&cpr, &normal, "u_r under a normal force");
+    fig.line_markers(&cpr, &tangential, "u_t under a tangential force");
+    fig.line_markers(&cpr, &tan_normal, "u_r under a tangential force");
+    fig.line(&[cpr[0], cpr[cpr.len() - 1]], &[1.0, 1.0], "sharp membrane (Stokes)");
+    fig.save(out.join("mobility.svg"))?;
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}

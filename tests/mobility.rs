@@ -1,0 +1,74 @@
+//! The Stokes response of the smoothed membrane to a prescribed `l = 2` surface force, against
+//! the single-layer solution for a sharp sphere of radius `a` in a fluid of equal viscosity
+//! inside and out: a normal force `g Y e_r` (`Y = 2 x z / r^2`) moves the surface with
+//! `u_r = (4/35) g a Y / mu`, a tangential force `g grad_s Y` with `u_t = (1/7) g a grad_s Y / mu`.
+//! The full set-up and the measured table are in `examples/surface_mobility.rs` and
+//! `docs/validation.md`; here at 3 and 4 cells per radius.
+
+use eulermembrane::diagnostics::surface_velocity_projection;
+use eulermembrane::grid::{Boundary, Grid};
+use eulermembrane::interface::shapes::Sphere;
+use eulermembrane::simulation::{Phase, Scene};
+
+const MU: f64 = 100.0;
+
+fn unit(x: [f64; 3]) -> [f64; 3] {
+    let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt().max(1e-12);
+    x.map(|c| c / r)
+}
+
+fn normal_mode(x: [f64; 3]) -> [f64; 3] {
+    let e = unit(x);
+    e.map(|c| 2.0 * e[0] * e[2] * c)
+}
+
+fn tangential_mode(x: [f64; 3]) -> [f64; 3] {
+    let e = unit(x);
+    let y = 2.0 * e[0] * e[2];
+    [2.0 * e[2] - 2.0 * y * e[0], -2.0 * y * e[1], 2.0 * e[0] - 2.0 * y * e[2]]
+}
+
+/// The membrane velocity on the normal and the tangential mode under the force `force`
+/// (g = 1) after 200 steps of viscous number 1 from rest (settled to 1e-3), over `g a / mu`.
+fn response(n: usize, force: fn([f64; 3]) -> [f64; 3]) -> [f64; 2] {
+    let grid = Grid::new([n; 3], [-4.0; 3], [4.0; 3], [[Boundary::Periodic; 2]; 3]).unwrap();
+    let mut sim = Scene::new(grid, Phase::new(1.0, MU).unwrap())
+        .capsule(Sphere::new([0.0; 3], 1.0).unwrap())
+        .surface_force(move |x, _| force(x))
+        .build()
+        .unwrap();
+    let h = 8.0 / n as f64;
+    for _ in 0..200 {
+        sim.step(h * h / MU).unwrap();
+    }
+    [normal_mode, tangential_mode].map(|mode| {
+        surface_velocity_projection(sim.grid(), sim.velocity(), sim.delta(0).unwrap(), mode).unwrap() * MU
+    })
+}
+
+#[test]
+fn normal_mobility_is_within_twenty_percent_of_stokes_and_converges() {
+    let stokes = 4.0 / 35.0;
+    let coarse = response(24, normal_mode)[0] / stokes;
+    let fine = response(32, normal_mode)[0] / stokes;
+    eprintln!("normal mobility / Stokes: a/h = 3: {coarse:.4}, a/h = 4: {fine:.4}");
+    // Measured 0.78 and 0.84 (see docs/validation.md for 6 and 8 cells per radius).
+    assert!(fine > 0.8 && fine < 1.0, "u_r / Stokes at a/h = 4: {fine}");
+    assert!(fine > coarse && coarse > 0.6, "a/h = 3: {coarse}, a/h = 4: {fine}");
+}
+
+#[test]
+fn tangential_mobility_converges_from_below() {
+    let stokes_t = 1.0 / 7.0;
+    let stokes_r = 6.0 / 35.0;
+    let coarse = response(24, tangential_mode)[1] / stokes_t;
+    let [fine_r, fine_t] = response(32, tangential_mode);
+    let fine = fine_t / stokes_t;
+    // The tangential velocity sits on a kink of the sharp solution that the band averages
+    // away: measured 0.40 and 0.47 (see docs/validation.md for 6 and 8 cells per radius).
+    assert!(fine > coarse && coarse > 0.3 && fine < 1.0, "a/h = 3: {coarse}, a/h = 4: {fine}");
+    // The normal velocity it drives is smooth across the membrane: within 20 % like above.
+    let normal = fine_r / stokes_r;
+    eprintln!("tangential mobility / Stokes: a/h = 3: {coarse:.4}, a/h = 4: {fine:.4}; u_r: {normal:.4}");
+    assert!(normal > 0.8 && normal < 1.0, "u_r / Stokes under the tangential force: {normal}");
+}
