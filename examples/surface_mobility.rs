@@ -37,7 +37,10 @@
 mod common;
 
 use common::{Args, BoxResult, num, result};
-use eulermembrane::diagnostics::surface_velocity_projection;
+use eulermembrane::diagnostics::{
+    STOKES_L2_NORMAL, STOKES_L2_TANGENTIAL, STOKES_L2_TANGENTIAL_NORMAL, l2_normal_mode as normal_mode,
+    l2_tangential_mode as tangential_mode, surface_velocity_projection,
+};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::csv::write_columns;
@@ -50,31 +53,6 @@ const HALF: f64 = 4.0;
 
 fn main() {
     common::exit_on_error(run());
-}
-
-/// `Y = 2 x z / r^2` at the unit vector `e`.
-fn y2(e: [f64; 3]) -> f64 {
-    2.0 * e[0] * e[2]
-}
-
-/// The unit vector from the sphere's centre (the origin) towards `x`.
-fn radial(x: [f64; 3]) -> [f64; 3] {
-    let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt().max(1e-12);
-    x.map(|c| c / r)
-}
-
-/// The normal mode `Y e_r`.
-fn normal_mode(x: [f64; 3]) -> [f64; 3] {
-    let e = radial(x);
-    let y = y2(e);
-    e.map(|c| y * c)
-}
-
-/// The tangential mode `grad_s Y` on the unit sphere, `(2 e_z, 0, 2 e_x) - 2 Y e`.
-fn tangential_mode(x: [f64; 3]) -> [f64; 3] {
-    let e = radial(x);
-    let y = y2(e);
-    [2.0 * e[2] - 2.0 * y * e[0], -2.0 * y * e[1], 2.0 * e[0] - 2.0 * y * e[2]]
 }
 
 /// The scene with the surface force `mode` (amplitude `g = 1`).
@@ -162,10 +140,13 @@ fn run() -> BoxResult<()> {
         }
         eprintln!("surface_mobility: {n}^3 cells, {} cells per radius, beta = {beta}", n / 8);
         let clock = Instant::now();
-        // Stokes values per g a / mu.
         let [un, _] = settle(n, beta, max_steps, normal_mode, [normal_mode, tangential_mode])?;
         let [ur, ut] = settle(n, beta, max_steps, tangential_mode, [normal_mode, tangential_mode])?;
-        let ratios = [un * MU / (4.0 / 35.0), ut * MU / (1.0 / 7.0), ur * MU / (6.0 / 35.0)];
+        let ratios = [
+            un * MU / STOKES_L2_NORMAL,
+            ut * MU / STOKES_L2_TANGENTIAL,
+            ur * MU / STOKES_L2_TANGENTIAL_NORMAL,
+        ];
         result(&[
             ("n", n.to_string()),
             ("cells_per_radius", (n / 8).to_string()),

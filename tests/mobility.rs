@@ -5,28 +5,15 @@
 //! The full set-up and the measured table are in `examples/surface_mobility.rs` and
 //! `docs/validation.md`; here at 3 and 4 cells per radius.
 
-use eulermembrane::diagnostics::surface_velocity_projection;
+use eulermembrane::diagnostics::{
+    STOKES_L2_NORMAL, STOKES_L2_TANGENTIAL, STOKES_L2_TANGENTIAL_NORMAL, l2_normal_mode as normal_mode,
+    l2_tangential_mode as tangential_mode, surface_velocity_projection,
+};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::simulation::{Phase, Scene};
 
 const MU: f64 = 100.0;
-
-fn unit(x: [f64; 3]) -> [f64; 3] {
-    let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt().max(1e-12);
-    x.map(|c| c / r)
-}
-
-fn normal_mode(x: [f64; 3]) -> [f64; 3] {
-    let e = unit(x);
-    e.map(|c| 2.0 * e[0] * e[2] * c)
-}
-
-fn tangential_mode(x: [f64; 3]) -> [f64; 3] {
-    let e = unit(x);
-    let y = 2.0 * e[0] * e[2];
-    [2.0 * e[2] - 2.0 * y * e[0], -2.0 * y * e[1], 2.0 * e[0] - 2.0 * y * e[2]]
-}
 
 /// The membrane velocity on the normal and the tangential mode under the force `force`
 /// (g = 1) after 200 steps of viscous number 1 from rest (settled to 1e-3), over `g a / mu`.
@@ -48,7 +35,7 @@ fn response(n: usize, force: fn([f64; 3]) -> [f64; 3]) -> [f64; 2] {
 
 #[test]
 fn normal_mobility_is_within_twenty_percent_of_stokes_and_converges() {
-    let stokes = 4.0 / 35.0;
+    let stokes = STOKES_L2_NORMAL;
     let coarse = response(24, normal_mode)[0] / stokes;
     let fine = response(32, normal_mode)[0] / stokes;
     eprintln!("normal mobility / Stokes: a/h = 3: {coarse:.4}, a/h = 4: {fine:.4}");
@@ -59,8 +46,7 @@ fn normal_mobility_is_within_twenty_percent_of_stokes_and_converges() {
 
 #[test]
 fn tangential_mobility_converges_from_below() {
-    let stokes_t = 1.0 / 7.0;
-    let stokes_r = 6.0 / 35.0;
+    let (stokes_t, stokes_r) = (STOKES_L2_TANGENTIAL, STOKES_L2_TANGENTIAL_NORMAL);
     let coarse = response(24, tangential_mode)[1] / stokes_t;
     let [fine_r, fine_t] = response(32, tangential_mode);
     let fine = fine_t / stokes_t;

@@ -14,12 +14,43 @@
 //! the membrane (see `examples/surface_mobility.rs`): for a sphere of radius `a` in a fluid of
 //! viscosity `mu` on both sides, a force `g Y_2 e_r` gives `u_r = (4/35) g a Y_2 / mu` on the
 //! surface (the single-layer Stokes potential; the same as Taylor's relaxation time of a drop of
-//! equal viscosity), and `g grad_s Y_2` gives `u_t = (1/7) g a grad_s Y_2 / mu`.
+//! equal viscosity), and `g grad_s Y_2` gives `u_t = (1/7) g a grad_s Y_2 / mu` and
+//! `u_r = (6/35) g a Y_2 / mu`. [`l2_normal_mode`] and [`l2_tangential_mode`] are these two
+//! modes for `Y_2 = 2 x z / r^2`; the `STOKES_L2_*` constants the three coefficients.
 
 use super::reduce::{check_field, check_vector, finite_or, sum_cells};
 use crate::grid::ops::velocity_at_cell;
 use crate::grid::{Field, Grid, VectorField};
 use crate::{Error, Real, Result};
+
+/// Stokes: `u_r / (g a Y_2 / mu)` on a sphere under the normal force `g Y_2 e_r`.
+pub const STOKES_L2_NORMAL: f64 = 4.0 / 35.0;
+/// Stokes: `u_t / (g a grad_s Y_2 / mu)` on a sphere under the tangential force `g grad_s Y_2`.
+pub const STOKES_L2_TANGENTIAL: f64 = 1.0 / 7.0;
+/// Stokes: `u_r / (g a Y_2 / mu)` on a sphere under the tangential force `g grad_s Y_2`.
+pub const STOKES_L2_TANGENTIAL_NORMAL: f64 = 6.0 / 35.0;
+
+/// The unit vector along `r`.
+fn radial(r: [f64; 3]) -> [f64; 3] {
+    let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt().max(1e-12);
+    r.map(|c| c / len)
+}
+
+/// The normal `l = 2` mode `Y_2 e_r`, `Y_2 = 2 e_x e_z`, at `r`, the position relative to the
+/// sphere's centre (constant along radial lines, so it can be applied across the band).
+pub fn l2_normal_mode(r: [f64; 3]) -> [f64; 3] {
+    let e = radial(r);
+    let y = 2.0 * e[0] * e[2];
+    e.map(|c| y * c)
+}
+
+/// The tangential `l = 2` mode `grad_s Y_2 = (2 e_z, 0, 2 e_x) - 2 Y_2 e` on the unit sphere, at
+/// `r`, the position relative to the sphere's centre (constant along radial lines).
+pub fn l2_tangential_mode(r: [f64; 3]) -> [f64; 3] {
+    let e = radial(r);
+    let y = 2.0 * e[0] * e[2];
+    [2.0 * e[2] - 2.0 * y * e[0], -2.0 * y * e[1], 2.0 * e[0] - 2.0 * y * e[2]]
+}
 
 /// The `delta`-weighted projection `c` of the cell-centred velocity on the mode `m(x)` (see the
 /// [module docs](self)). `v` is the staggered velocity with one ghost layer filled; `delta` the
@@ -63,7 +94,7 @@ pub fn surface_velocity_projection<T: Real>(
     });
     let fields = [("delta", delta), ("v.u", &v.c[0]), ("v.v", &v.c[1]), ("v.w", &v.c[2])];
     let [num, den] = finite_or(sums, grid, &fields)?;
-    if den <= 0.0 || !den.is_finite() {
+    if den <= 0.0 {
         return Err(Error::invalid(
             "m",
             "a mode that is zero on the band",
@@ -89,6 +120,19 @@ mod tests {
         // a mode twice as long halves the coefficient
         let c2 = surface_velocity_projection(&g, &v, &delta, |_| [2.0, 0.0, 0.0]).unwrap();
         assert!((c2 - 0.5 * 0.4375).abs() < 1e-12, "{c2}");
+    }
+
+    #[test]
+    fn the_l2_modes_are_normal_and_tangential_and_orthogonal() {
+        for r in [[0.3, -0.5, 0.8], [2.0, 1.0, -1.5], [-0.1, 0.0, 0.4]] {
+            let e = radial(r);
+            let (n, t) = (l2_normal_mode(r), l2_tangential_mode(r));
+            let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+            let cross = [n[1] * e[2] - n[2] * e[1], n[2] * e[0] - n[0] * e[2], n[0] * e[1] - n[1] * e[0]];
+            assert!(dot(cross, cross) < 1e-28, "{n:?} not along {e:?}");
+            assert!(dot(t, e).abs() < 1e-14 && dot(t, n).abs() < 1e-14, "{t:?}");
+            assert!((dot(n, e) - 2.0 * e[0] * e[2]).abs() < 1e-14);
+        }
     }
 
     #[test]
