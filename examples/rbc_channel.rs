@@ -22,6 +22,9 @@
 //! in z), `mu = 0.5 / 0.1`, `E_s = 0.1`, `alpha = 10`, `E_b = 5e-6`, `dt = 0.00025` (Sec. 3.4.3),
 //! an opt-in long run; works at reduced `--n`.
 //!
+//! `--case replot --files A.csv,B.csv,...`: redraws `area.svg` (Fig. 12) from `area_alpha*.csv`
+//! files written by `--case single` runs, e.g. one process per alpha run side by side.
+//!
 //! Flags: `--n` (32; the paper uses 64, 128 for `many`), `--dt`, `--t-end`, `--alpha LIST`,
 //! `--case`, `--cells`, `--bending-form divergence|energy` (`Settings::bending_form`, default
 //! the paper's `divergence`),
@@ -35,7 +38,7 @@ use common::{Args, BoxResult, num, result};
 use eulermembrane::diagnostics::AreaTracker;
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
-use eulermembrane::io::csv::{CsvWriter, write_columns};
+use eulermembrane::io::csv::{CsvWriter, read_columns, write_columns};
 use eulermembrane::io::plot::{Figure, LineStyle, contour_segments};
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{BendingForm, Skalak};
@@ -96,7 +99,8 @@ fn run() -> BoxResult<()> {
             let cells = args.get("cells", 8);
             many(n, args.get("dt", 0.00025), args.get("t-end", 5.0), cells, bend, vtk_every, &out)
         }
-        other => Err(format!("--case {other}: expected single, two1, two2 or many").into()),
+        "replot" => replot(&args.get("files", String::new()), &out),
+        other => Err(format!("--case {other}: expected single, two1, two2, many or replot").into()),
     }
 }
 
@@ -114,6 +118,28 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
         .body_force([1.0, 0.0, 0.0])
         .settings(Settings { bending_form: p.bend, ..Settings::default() })
         .build()
+}
+
+/// The area histories of Fig. 12 from the `area_alpha*.csv` files in the comma-separated
+/// list `files`, in one plot (`area.svg` in `out`).
+fn replot(files: &str, out: &Path) -> BoxResult<()> {
+    let paths: Vec<&str> = files.split(',').map(str::trim).filter(|f| !f.is_empty()).collect();
+    if paths.is_empty() {
+        return Err("--case replot needs --files A.csv,B.csv,... (area_alpha*.csv of --case single)".into());
+    }
+    let mut fig = Figure::new("surface area by (3.7) (Fig. 12)").x_label("t").y_label("s / s0");
+    for path in paths {
+        let table = read_columns(path)?;
+        let stem = Path::new(path).file_stem().and_then(|s| s.to_str()).unwrap_or(path);
+        let label = stem.strip_prefix("area_alpha").map_or(stem.to_string(), |a| format!("alpha = {a}"));
+        let column = |name: &str| table.column(name).ok_or(format!("{path}: no column {name}"));
+        let t = column("t")?;
+        fig.line(t, column("area_37")?, &format!("{label}, (3.7)"));
+        fig.line(t, column("area_delta")?, &format!("{label}, sum delta h^3")).style(LineStyle::Dashed);
+    }
+    fig.save(out.join("area.svg"))?;
+    eprintln!("rbc_channel replot: wrote {}", out.join("area.svg").display());
+    Ok(())
 }
 
 fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], bend: BendingForm, out: &Path) -> BoxResult<()> {
