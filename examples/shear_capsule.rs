@@ -3,7 +3,7 @@
 //! Le 2010) from `shared/reference`. The set-up is in `examples/common/shear.rs`.
 //!
 //! Prints progress; writes into `--out` the history `history.csv` (t, D, angle, area, volume
-//! drift, predictor iterations), the plot `deformation.svg` of `D(t)` with the reference curves
+//! drift, predictor iterations; written as the run goes, so a failed run leaves it), the plot `deformation.svg` of `D(t)` with the reference curves
 //! (like Fig. 10, or Fig. 11 with bending), ParaView snapshots (`shear.pvd`); ends with
 //! `RESULT ca=... n=... d_steady=... angle_deg=... d_ref=... rel_err=... wall_s=...`, where
 //! `d_steady` is the mean `D` over the last time unit and `d_ref` the published late-time value
@@ -84,15 +84,9 @@ fn run() -> BoxResult<()> {
         base.t_end
     );
     let vtk_every: f64 = args.get("vtk-every", 1.0);
-    let o = simulate(&args, &base, Some((&out, vtk_every)))?;
-    let mut csv = CsvWriter::create(
-        out.join("history.csv"),
-        &["t", "d", "angle_deg", "area_ratio", "volume_drift", "iterations"],
-    )?;
-    for s in &o.samples {
-        csv.row(&[s.t, s.d, s.angle_deg, s.area_ratio, s.volume_drift, s.iterations as f64])?;
-    }
-    csv.finish()?;
+    let o = simulate(&args, &base, Some((&out, vtk_every))).map_err(|e| {
+        format!("{e}\n(the history up to the failure is in {})", out.join("history.csv").display())
+    })?;
     let mut fig =
         Figure::new(format!("Taylor deformation, Ca = {}, E_b' = {}, N = {n}", base.ca, base.eb_prime))
             .x_label("t")

@@ -13,6 +13,7 @@ use eulermembrane::Real;
 use eulermembrane::diagnostics::taylor_deformation;
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
+use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::NeoHookean;
 use eulermembrane::simulation::stability::bending_dt_limit;
@@ -148,15 +149,24 @@ pub fn build<T: Real>(case: &ShearCase, settings: Settings<T>) -> eulermembrane:
 }
 
 /// Runs `case` to its end time, measuring `D` every `sample_every` time units, printing
-/// progress to stderr every 5 %, writing a VTK snapshot every `vtk_every` time units (0: none)
-/// into `vtk_dir`.
+/// progress to stderr every 5 %. With `out = Some((dir, vtk_every))` it writes the history
+/// `dir/history.csv` as it goes (flushed with each progress line, so that a run that fails
+/// leaves its history so far) and a VTK snapshot every `vtk_every` time units (0: none).
 pub fn run<T: Real>(
     case: &ShearCase,
     settings: Settings<T>,
     sample_every: f64,
-    vtk: Option<(&Path, f64)>,
+    out: Option<(&Path, f64)>,
     quiet: bool,
 ) -> Result<ShearOutcome, Box<dyn std::error::Error>> {
+    let vtk = out;
+    let mut history = match out {
+        Some((dir, _)) => Some(CsvWriter::create(
+            dir.join("history.csv"),
+            &["t", "d", "angle_deg", "area_ratio", "volume_drift", "iterations"],
+        )?),
+        None => None,
+    };
     let mut sim = build(case, settings)?;
     let steps = (case.t_end / case.dt).round().max(1.0) as usize;
     let dt = T::lit(case.dt);
@@ -180,14 +190,18 @@ pub fn run<T: Real>(
             max_drift = max_drift.max(drift);
             let centre = sim.centroid(0)?;
             let td = taylor_deformation(sim.grid(), sim.phi(0)?, centre, 1)?;
-            samples.push(ShearSample {
+            let sample = ShearSample {
                 t,
                 d: td.deformation,
                 angle_deg: td.angle_deg,
                 area_ratio: sim.area(0)? / a0,
                 volume_drift: drift,
                 iterations,
-            });
+            };
+            if let Some(h) = history.as_mut() {
+                h.row(&[t, sample.d, sample.angle_deg, sample.area_ratio, drift, iterations as f64])?;
+            }
+            samples.push(sample);
         }
         if let Some((dir, every_t)) = vtk
             && every_t > 0.0
@@ -206,6 +220,14 @@ pub fn run<T: Real>(
             );
             super::progress(s, steps, t, &clock, &extra);
         }
+        if let Some(h) = history.as_mut()
+            && s % (steps / 20).max(1) == 0
+        {
+            h.flush()?;
+        }
+    }
+    if let Some(h) = history {
+        h.finish()?;
     }
     let (wall_s, cpu_s) = (clock.elapsed().as_secs_f64(), super::cpu_seconds() - cpu0);
     if let Some((dir, every_t)) = vtk
