@@ -214,9 +214,10 @@ pub fn run<T: Real>(
         }
         if !quiet && s > 0 {
             let last = samples.last().expect("sampled at step 0");
+            // The last sample may be up to `sample_every` older than the step: say when.
             let extra = format!(
-                "D={:.4} angle={:.1} area={:.4} iters={iterations}",
-                last.d, last.angle_deg, last.area_ratio
+                "D={:.4} angle={:.1} area={:.4} (sampled at t={:.3}) iters={iterations}",
+                last.d, last.angle_deg, last.area_ratio, last.t
             );
             super::progress(s, steps, t, &clock, &extra);
         }
