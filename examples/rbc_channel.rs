@@ -120,6 +120,12 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
         .build()
 }
 
+/// One cell's area history in Fig. 12: by (3.7), solid, and by `sum delta h^3`, dashed.
+fn area_lines(fig: &mut Figure, label: &str, t: &[f64], s37: &[f64], sdelta: &[f64]) {
+    fig.line(t, s37, &format!("{label}, (3.7)"));
+    fig.line(t, sdelta, &format!("{label}, sum delta h^3")).style(LineStyle::Dashed);
+}
+
 /// The area histories of Fig. 12 from the `area_alpha*.csv` files in the comma-separated
 /// list `files`, in one plot (`area.svg` in `out`).
 fn replot(files: &str, out: &Path) -> BoxResult<()> {
@@ -133,9 +139,7 @@ fn replot(files: &str, out: &Path) -> BoxResult<()> {
         let stem = Path::new(path).file_stem().and_then(|s| s.to_str()).unwrap_or(path);
         let label = stem.strip_prefix("area_alpha").map_or(stem.to_string(), |a| format!("alpha = {a}"));
         let column = |name: &str| table.column(name).ok_or(format!("{path}: no column {name}"));
-        let t = column("t")?;
-        fig.line(t, column("area_37")?, &format!("{label}, (3.7)"));
-        fig.line(t, column("area_delta")?, &format!("{label}, sum delta h^3")).style(LineStyle::Dashed);
+        area_lines(&mut fig, &label, column("t")?, column("area_37")?, column("area_delta")?);
     }
     fig.save(out.join("area.svg"))?;
     eprintln!("rbc_channel replot: wrote {}", out.join("area.svg").display());
@@ -187,14 +191,13 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], bend: BendingForm, out:
             s37.push(rel);
             sdelta.push(rel_delta);
             csv.row(&[sim.time(), rel, rel_delta, drift])?;
-            if s % (steps / 20).max(1) == 0 {
+            if common::progress_due(s, steps) {
                 csv.flush()?; // a long run that fails still leaves its curve so far
             }
             common::progress(s, steps, sim.time(), &clock, &format!("s/s0={rel:.4} delta={rel_delta:.4}"));
         }
         csv.finish()?;
-        fig.line(&t, &s37, &format!("alpha = {alpha}, (3.7)"));
-        fig.line(&t, &sdelta, &format!("alpha = {alpha}, sum delta h^3")).style(LineStyle::Dashed);
+        area_lines(&mut fig, &format!("alpha = {alpha}"), &t, &s37, &sdelta);
         sections.segments(section_y(&g, sim.phi(0)?, 0.25), &format!("alpha = {alpha}"));
         lines.push(vec![
             ("alpha", alpha.to_string()),

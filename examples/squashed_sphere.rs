@@ -147,7 +147,7 @@ fn history(
             let report = sim.step(dt)?;
             let e = budget.record(sim.energy()?)?;
             peak_elastic = peak_elastic.max(e.elastic);
-            if s % (steps / 20).max(1) == 0 || s == steps {
+            if common::progress_due(s, steps) {
                 eprintln!(
                     "step {s}/{steps} t={:.3} E_el={:.3e} E_tot-E0={:.2e} iters={} cfl={:.3} ({:.0} s)",
                     report.flow.time,

@@ -149,10 +149,16 @@ pub fn cpu_seconds() -> f64 {
     (tick(11) + tick(12)) / 100.0
 }
 
-/// Prints a progress line of a run of `steps` steps to stderr every 5 % (and at the last step):
+/// Whether step `s` of a run of `steps` steps is a progress step: every 5 % and the last one.
+/// The cadence of [`progress`], and of the flushes of the examples' CSV files.
+pub fn progress_due(s: usize, steps: usize) -> bool {
+    s % (steps / 20).max(1) == 0 || s == steps
+}
+
+/// Prints a progress line of a run of `steps` steps to stderr at each [`progress_due`] step:
 /// step, time, `extra`, elapsed and remaining wall time.
 pub fn progress(s: usize, steps: usize, t: f64, clock: &std::time::Instant, extra: &str) {
-    if s % (steps / 20).max(1) == 0 || s == steps {
+    if progress_due(s, steps) {
         let el = clock.elapsed().as_secs_f64();
         eprintln!(
             "  step {s}/{steps} t={t:.3} {extra} ({el:.0} s, ~{:.0} s left)",

@@ -159,7 +159,6 @@ pub fn run<T: Real>(
     out: Option<(&Path, f64)>,
     quiet: bool,
 ) -> Result<ShearOutcome, Box<dyn std::error::Error>> {
-    let vtk = out;
     let mut history = match out {
         Some((dir, _)) => Some(CsvWriter::create(
             dir.join("history.csv"),
@@ -203,7 +202,7 @@ pub fn run<T: Real>(
             }
             samples.push(sample);
         }
-        if let Some((dir, every_t)) = vtk
+        if let Some((dir, every_t)) = out
             && every_t > 0.0
             && t >= next_vtk - 1e-9
         {
@@ -222,7 +221,7 @@ pub fn run<T: Real>(
             super::progress(s, steps, t, &clock, &extra);
         }
         if let Some(h) = history.as_mut()
-            && s % (steps / 20).max(1) == 0
+            && super::progress_due(s, steps)
         {
             h.flush()?;
         }
@@ -231,7 +230,7 @@ pub fn run<T: Real>(
         h.finish()?;
     }
     let (wall_s, cpu_s) = (clock.elapsed().as_secs_f64(), super::cpu_seconds() - cpu0);
-    if let Some((dir, every_t)) = vtk
+    if let Some((dir, every_t)) = out
         && every_t > 0.0
     {
         pvd.write(dir.join("shear.pvd"))?;
