@@ -33,7 +33,8 @@
 //! against CPU seconds, log-log, Pareto front dashed), `shear_all.svg` (every shear run),
 //! `recommendation.md`, and `runs.log` (one line per finished run, as they finish). Ends with
 //! `RESULT best_err=... cpu_s_5pct=... cpu_s_10pct=... cpu_s_20pct=... runs=... failed=...`
-//! (NaN where no run reached the target).
+//! (NaN where no run reached the target). `--reference DIR`: the `shared/reference` folder, if
+//! it is not beside the checkout.
 //!
 //! Run: `cargo run --release --example accuracy_cost -- --study all --jobs 2`.
 
@@ -186,7 +187,7 @@ fn main() {
 }
 
 fn run() -> BoxResult<()> {
-    let args = Args::parse();
+    let args = Args::parse(include_str!("accuracy_cost.rs"));
     let out = args.out_dir("accuracy_cost");
     let study: String = args.get("study", "quick".to_string());
     let mut names: Vec<&str> = study.split(',').collect();

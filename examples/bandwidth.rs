@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use std::time::Instant;
 
 fn main() {
-    let args = common::Args::parse();
+    let args = common::Args::parse(include_str!("bandwidth.rs"));
     let mb: usize = args.get("mb", 128);
     let reps: usize = args.get("reps", 20);
     let len = mb * (1 << 20) / 8;

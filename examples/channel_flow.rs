@@ -2,13 +2,15 @@
 //! each started from rest: the steady profiles against the exact parabola and line at N = 16,
 //! 32, 64, and the start-up transient against its series solution.
 //!
+//! Flags: `--out DIR` (`out/channel_flow`).
+//!
 //! `cargo run --release --example channel_flow`
 #[path = "common/cases.rs"]
 mod cases;
 mod common;
 
 fn main() {
-    let args = common::Args::parse();
+    let args = common::Args::parse(include_str!("channel_flow.rs"));
     let out = args.out_dir("channel_flow");
     let (mu, f, u_top) = (1.0, 1.0, 1.0);
     // Steady state: exp(-pi^2 mu t) at t = 4 is 1e-17. Crank-Nicolson barely damps the

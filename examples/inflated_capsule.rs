@@ -40,7 +40,7 @@ struct Outcome {
 }
 
 fn run() -> BoxResult<()> {
-    let args = Args::parse();
+    let args = Args::parse(include_str!("inflated_capsule.rs"));
     let out = args.out_dir("inflated_capsule");
     let n: usize = args.get("n", 64);
     let lambda: f64 = args.get("lambda", 1.05);

@@ -86,7 +86,7 @@ fn coupled<T: Real>(n: usize, steps: usize, scene: &str) {
 }
 
 fn main() {
-    let args = common::Args::parse();
+    let args = common::Args::parse(include_str!("profile_step.rs"));
     let n: usize = args.get("n", 64);
     let steps: usize = args.get("steps", 10);
     match args.opt::<String>("scene") {

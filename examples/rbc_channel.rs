@@ -77,7 +77,7 @@ const PAPER: Params = Params {
 };
 
 fn run() -> BoxResult<()> {
-    let args = Args::parse();
+    let args = Args::parse(include_str!("rbc_channel.rs"));
     let out = args.out_dir("rbc_channel");
     let n: usize = args.get("n", 32);
     let case: String = args.get("case", "single".to_string());

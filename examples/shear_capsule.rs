@@ -39,7 +39,7 @@ fn main() {
 }
 
 fn run() -> BoxResult<()> {
-    let args = Args::parse();
+    let args = Args::parse(include_str!("shear_capsule.rs"));
     let out = args.out_dir("shear_capsule");
     let n: usize = args.get("n", 32);
     let (ca, eb_prime, lambda) = (args.get("ca", 0.05), args.get("bending", 0.0), args.get("lambda", 1.0));

@@ -20,6 +20,7 @@
 
 mod common;
 
+use common::Args;
 use common::vortex::{self, Snap, VortexCase};
 use eulermembrane::grid::{Field, Grid};
 use eulermembrane::interface::{CellQuadrature, NormalScheme};
@@ -48,66 +49,41 @@ struct Opts {
     beta: f64,
     cfl: f64,
     tiny: f64,
-    out: String,
+    out: std::path::PathBuf,
     plots: bool,
 }
 
-fn parse() -> Result<Opts, String> {
-    let mut o = Opts {
-        ns: vec![32, 64, 128, 256],
-        sin: false,
-        normals: NormalScheme::Youngs,
-        quadrature: CellQuadrature::Gauss2,
-        beta: 1.0,
-        cfl: 0.25,
-        tiny: eulermembrane::interface::advect::default_tiny(),
-        out: "out/single_vortex".into(),
-        plots: true,
+fn parse(args: &Args) -> Result<Opts, String> {
+    let n: Option<usize> = args.opt("n");
+    if n.is_some_and(|n| n < 8) {
+        return Err(format!("--n {}: at least 8", n.unwrap_or(0)));
+    }
+    let sin = match args.get("stream", "cos".to_string()).as_str() {
+        "sin" => true,
+        "cos" => false,
+        s => return Err(format!("--stream {s}: cos or sin")),
     };
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut i = 0;
-    while i < args.len() {
-        let val = |k: usize| args.get(k + 1).cloned().ok_or(format!("{} needs a value", args[k]));
-        match args[i].as_str() {
-            "--n" => {
-                let n: usize = val(i)?.parse().map_err(|e| format!("--n: {e}"))?;
-                if n < 8 {
-                    return Err("--n: at least 8".into());
-                }
-                o.ns = vec![n];
-            }
-            "--stream" => {
-                o.sin = match val(i)?.as_str() {
-                    "sin" => true,
-                    "cos" => false,
-                    s => return Err(format!("--stream: cos or sin, not {s}")),
-                }
-            }
-            "--normals" => o.normals = NormalScheme::from_name(&val(i)?).map_err(|e| e.to_string())?,
-            "--quadrature" => {
-                o.quadrature = match val(i)?.as_str() {
-                    "exact" => CellQuadrature::ExactAlongNormal,
-                    "gauss2" => CellQuadrature::Gauss2,
-                    s => return Err(format!("--quadrature: exact or gauss2, not {s}")),
-                }
-            }
-            "--beta" => o.beta = val(i)?.parse().map_err(|e| format!("--beta: {e}"))?,
-            "--cfl" => o.cfl = val(i)?.parse().map_err(|e| format!("--cfl: {e}"))?,
-            "--tiny" => o.tiny = val(i)?.parse().map_err(|e| format!("--tiny: {e}"))?,
-            "--out" => o.out = val(i)?,
-            "--no-plots" => {
-                o.plots = false;
-                i += 1;
-                continue;
-            }
-            s => return Err(format!("unknown flag {s}")),
-        }
-        i += 2;
+    let quadrature = match args.get("quadrature", "gauss2".to_string()).as_str() {
+        "exact" => CellQuadrature::ExactAlongNormal,
+        "gauss2" => CellQuadrature::Gauss2,
+        s => return Err(format!("--quadrature {s}: exact or gauss2")),
+    };
+    let cfl = args.get("cfl", 0.25);
+    if !(cfl > 0.0 && cfl <= 1.0) {
+        return Err(format!("--cfl {cfl}: in (0, 1]"));
     }
-    if !(o.cfl > 0.0 && o.cfl <= 1.0) {
-        return Err("--cfl: in (0, 1]".into());
-    }
-    Ok(o)
+    Ok(Opts {
+        ns: n.map_or_else(|| vec![32, 64, 128, 256], |n| vec![n]),
+        sin,
+        normals: NormalScheme::from_name(&args.get("normals", "youngs".to_string()))
+            .map_err(|e| e.to_string())?,
+        quadrature,
+        beta: args.get("beta", 1.0),
+        cfl,
+        tiny: args.get("tiny", eulermembrane::interface::advect::default_tiny()),
+        out: args.out_dir("single_vortex"),
+        plots: !args.flag("no-plots"),
+    })
 }
 
 struct Run {
@@ -137,7 +113,7 @@ fn run(n: usize, o: &Opts) -> Result<Run, Box<dyn std::error::Error>> {
 }
 
 fn main() {
-    let o = match parse() {
+    let o = match parse(&Args::parse(include_str!("single_vortex.rs"))) {
         Ok(o) => o,
         Err(e) => {
             eprintln!("error: {e}");
@@ -221,7 +197,7 @@ fn contour(g: &Grid<f64>, f: &Field<f64>, level: f64) -> Vec<[(f64, f64); 2]> {
 }
 
 fn plots(g: &Grid<f64>, snaps: &[Snap<f64>], o: &Opts, n: usize) -> eulermembrane::Result<()> {
-    let dir = std::path::Path::new(&o.out);
+    let dir = o.out.as_path();
     // Fig. 3: contours phi = 0.05, 0.5, 0.95 at t = 0, T/2, T.
     let mut panels = Panels::new(3);
     for (t, phi, _) in snaps {

@@ -2,6 +2,8 @@
 //! BiCGStab preconditioned by the FFT Helmholtz solve, at the stiffness of the paper's shear
 //! case at N = 128: `mu dt / (rho h^2) = 12.8`. Same grid, same state, same steps.
 //!
+//! Flags: `--n N` (64), `--steps S` (3), `--krylov-tol TOL` (BiCGStab relative residual, 1e-8).
+//!
 //! `cargo run --release --example solver_compare [-- --n 64 --steps 3]`
 mod common;
 
@@ -37,7 +39,7 @@ fn run(n: usize, steps: usize, solver: PredictorSolver) -> (usize, f64, Vec<f64>
 }
 
 fn main() {
-    let args = common::Args::parse();
+    let args = common::Args::parse(include_str!("solver_compare.rs"));
     let n: usize = args.get("n", 64);
     let steps: usize = args.get("steps", 3);
     let tol: f64 = args.get("krylov-tol", 1e-8);

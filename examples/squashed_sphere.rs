@@ -45,7 +45,7 @@ fn main() {
 }
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
-    let args = Args::parse();
+    let args = Args::parse(include_str!("squashed_sphere.rs"));
     let out = args.out_dir("squashed_sphere");
     let gamma: f64 = args.get("gamma", 4.0);
     if args.flag("convergence") {

@@ -42,7 +42,7 @@ fn main() {
 type Res = Result<(), Box<dyn std::error::Error>>;
 
 fn start() -> Res {
-    let args = Args::parse();
+    let args = Args::parse(include_str!("stability.rs"));
     let out = args.out_dir("stability");
     let n: usize = args.get("n", 16);
     match args.get("mode", "cases".to_string()).as_str() {

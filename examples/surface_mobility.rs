@@ -127,7 +127,7 @@ fn settle(
 }
 
 fn run() -> BoxResult<()> {
-    let args = Args::parse();
+    let args = Args::parse(include_str!("surface_mobility.rs"));
     let out = args.out_dir("surface_mobility");
     let ns: String = args.get("n", "24,32".to_string());
     let ns: Vec<usize> = ns.split(',').map(|s| s.trim().parse()).collect::<Result<_, _>>()?;

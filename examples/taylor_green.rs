@@ -1,6 +1,9 @@
 //! Decaying 2D Taylor-Green vortex in a periodic box: the flow stepper against the exact
 //! solution `u = sin x cos y e^{-2 nu t}`, `v = -cos x sin y e^{-2 nu t}` at N = 16, 32, 64.
 //!
+//! Flags: `--t-end T` (1), `--sor` (the paper's SOR for the predictor instead of BiCGStab),
+//! `--out DIR` (`out/taylor_green`).
+//!
 //! `cargo run --release --example taylor_green [-- --t-end 1.0 --sor]`
 #[path = "common/cases.rs"]
 mod cases;
@@ -9,7 +12,7 @@ mod common;
 use eulermembrane::fluid::{PredictorSolver, SorParams};
 
 fn main() {
-    let args = common::Args::parse();
+    let args = common::Args::parse(include_str!("taylor_green.rs"));
     let out = args.out_dir("taylor_green");
     let t_end: f64 = args.get("t-end", 1.0);
     let solver = if args.flag("sor") {

@@ -16,41 +16,25 @@ use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
 use eulermembrane::interface::{AdvectionParams, Advector, NormalScheme};
 use std::io::Write as _;
 
+mod common;
+
 fn main() {
-    if let Err(e) = run() {
-        eprintln!("error: {e}");
-        std::process::exit(1);
-    }
+    common::exit_on_error(run());
 }
 
 fn run() -> Result<(), Box<dyn std::error::Error>> {
-    let mut n = 64usize;
-    let mut radius = 0.25;
-    let mut cfl = 0.25;
-    let mut normals = AdvectionParams::<f64>::default().normals;
-    let mut curvature = true;
-    let mut out = String::from("out/translate_sphere");
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut i = 0;
-    while i < args.len() {
-        let val = || args.get(i + 1).cloned().ok_or(format!("{} needs a value", args[i]));
-        match args[i].as_str() {
-            "--n" => n = val()?.parse()?,
-            "--radius" => radius = val()?.parse()?,
-            "--cfl" => cfl = val()?.parse()?,
-            "--normals" => normals = NormalScheme::from_name(&val()?)?,
-            "--out" => out = val()?,
-            "--no-curvature" => {
-                curvature = false;
-                i += 1;
-                continue;
-            }
-            s => return Err(format!("unknown flag {s}").into()),
-        }
-        i += 2;
-    }
+    let args = common::Args::parse(include_str!("translate_sphere.rs"));
+    let n: usize = args.get("n", 64);
+    let radius: f64 = args.get("radius", 0.25);
+    let cfl: f64 = args.get("cfl", 0.25);
+    let normals = match args.opt::<String>("normals") {
+        Some(name) => NormalScheme::from_name(&name)?,
+        None => AdvectionParams::<f64>::default().normals,
+    };
+    let curvature = !args.flag("no-curvature");
+    let out = args.out_dir("translate_sphere");
     if !(cfl > 0.0 && cfl <= 1.0) {
-        return Err("--cfl must be in (0, 1]".into());
+        return Err(format!("--cfl {cfl}: in (0, 1]").into());
     }
     let g = Grid::<f64>::periodic([n; 3], [0.0; 3], [1.0; 3])?;
     let sphere = Sphere::new([0.5; 3], radius)?;
@@ -65,9 +49,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let params = AdvectionParams { normals, ..Default::default() };
     let mut adv = Advector::new(&g, params, curvature)?;
     let mass0 = phi0.interior_sum(&g);
-    std::fs::create_dir_all(&out)?;
-    let mut csv =
-        std::io::BufWriter::new(std::fs::File::create(std::path::Path::new(&out).join("history.csv"))?);
+    let mut csv = std::io::BufWriter::new(std::fs::File::create(out.join("history.csv"))?);
     writeln!(csv, "step,t,volume_drift,profile_cells")?;
     let t0 = std::time::Instant::now();
     let mut band = 0;

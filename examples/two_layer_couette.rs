@@ -2,13 +2,15 @@
 //! mixture viscosity (2.25) of a tanh VOF profile against the exact piecewise-linear profile of
 //! the sharp interface, at N = 16, 32, 64.
 //!
+//! Flags: `--out DIR` (`out/two_layer_couette`).
+//!
 //! `cargo run --release --example two_layer_couette`
 #[path = "common/cases.rs"]
 mod cases;
 mod common;
 
 fn main() {
-    let args = common::Args::parse();
+    let args = common::Args::parse(include_str!("two_layer_couette.rs"));
     let out = args.out_dir("two_layer_couette");
     let (mu1, mu2, y_i) = (5.0, 1.0, 0.5 + 1.0 / 3.0 * 0.1);
     let ns = [16usize, 32, 64];

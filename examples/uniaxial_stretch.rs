@@ -38,40 +38,8 @@ mod common;
 
 use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw, uniaxial_tension};
 use std::fmt::Write as _;
-use std::path::PathBuf;
 
-type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
-
-struct Args {
-    out: PathBuf,
-    n: usize,
-    reference: Option<PathBuf>,
-}
-
-fn parse_args() -> BoxResult<Args> {
-    let mut args = Args { out: PathBuf::from("out/uniaxial_stretch"), n: 200, reference: None };
-    let mut it = std::env::args().skip(1);
-    while let Some(a) = it.next() {
-        let mut value = |name: &str| it.next().ok_or_else(|| format!("{name} needs a value"));
-        match a.as_str() {
-            "--out" => args.out = PathBuf::from(value("--out")?),
-            "--n" => {
-                let v = value("--n")?;
-                args.n = v.parse().map_err(|_| format!("--n: expected an integer >= 2, got {v}"))?;
-                if args.n < 2 {
-                    return Err(format!("--n: expected an integer >= 2, got {}", args.n).into());
-                }
-            }
-            "--reference" => args.reference = Some(PathBuf::from(value("--reference")?)),
-            "-h" | "--help" => {
-                println!("uniaxial_stretch [--out DIR] [--n N] [--reference DIR]");
-                std::process::exit(0);
-            }
-            other => return Err(format!("unknown argument {other}").into()),
-        }
-    }
-    Ok(args)
-}
+use common::BoxResult;
 
 /// One law's comparison with the published points.
 struct Published {
@@ -90,9 +58,17 @@ impl Published {
     }
 }
 
-fn main() -> BoxResult<()> {
-    let args = parse_args()?;
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("creating {}: {e}", args.out.display()))?;
+fn main() {
+    common::exit_on_error(run());
+}
+
+fn run() -> BoxResult<()> {
+    let args = common::Args::parse(include_str!("uniaxial_stretch.rs"));
+    let out = args.out_dir("uniaxial_stretch");
+    let n: usize = args.get("n", 200);
+    if n < 2 {
+        return Err(format!("--n {n}: at least 2").into());
+    }
 
     // G_s = 1 for both laws.
     let neo = NeoHookean::new(3.0)?;
@@ -114,10 +90,10 @@ fn main() -> BoxResult<()> {
          skalak_closed,skalak_generic,skalak_lambda2\n",
     );
     let (mut err_neo, mut err_sk) = (0.0f64, 0.0f64);
-    let mut curve_neo = Vec::with_capacity(args.n);
-    let mut curve_sk = Vec::with_capacity(args.n);
-    for i in 1..=args.n {
-        let e1 = e_max * i as f64 / args.n as f64;
+    let mut curve_neo = Vec::with_capacity(n);
+    let mut curve_sk = Vec::with_capacity(n);
+    for i in 1..=n {
+        let e1 = e_max * i as f64 / n as f64;
         let l1 = (1.0 + 2.0 * e1).sqrt();
         let (tn, l2n) = neo.uniaxial_tension(l1);
         let (ts, l2s) = skalak.uniaxial_tension(l1);
@@ -129,11 +105,11 @@ fn main() -> BoxResult<()> {
         curve_sk.push((e1, ts));
         writeln!(csv, "{e1:.6},{l1:.12},{tn:.15e},{gn:.15e},{l2n:.12},{ts:.15e},{gs:.15e},{l2s:.12}")?;
     }
-    let curves_path = args.out.join("model_curves.csv");
+    let curves_path = out.join("model_curves.csv");
     std::fs::write(&curves_path, csv).map_err(|e| format!("{}: {e}", curves_path.display()))?;
 
     // 3: published points.
-    let refdir = common::reference_dir(args.reference, "uniaxial_stretch")?;
+    let refdir = common::reference_dir(args.opt("reference"), "uniaxial_stretch")?;
     let mut published = Vec::new();
     for (name, file, law) in [
         ("neo_hookean", "barthes_biesel_2002_neo_hookean.csv", &neo as &dyn SurfaceLaw<f64>),
@@ -154,7 +130,7 @@ fn main() -> BoxResult<()> {
             writeln!(cmp, "{},{e1:.6},{y:.6},{t:.6},{r:.6},{f:.6}", p.name)?;
         }
     }
-    let cmp_path = args.out.join("bb2002_comparison.csv");
+    let cmp_path = out.join("bb2002_comparison.csv");
     std::fs::write(&cmp_path, cmp).map_err(|e| format!("{}: {e}", cmp_path.display()))?;
 
     // Plot.
@@ -189,7 +165,7 @@ fn main() -> BoxResult<()> {
         "T1 / G_s",
         "Uniaxial tension of a flat membrane",
     );
-    let svg_path = args.out.join("uniaxial_stretch.svg");
+    let svg_path = out.join("uniaxial_stretch.svg");
     std::fs::write(&svg_path, svg).map_err(|e| format!("{}: {e}", svg_path.display()))?;
 
     // Summary table.
@@ -210,7 +186,7 @@ fn main() -> BoxResult<()> {
         );
     }
     println!();
-    println!("Generic stress code vs closed form (0 < e1 <= {e_max}, {} samples):", args.n);
+    println!("Generic stress code vs closed form (0 < e1 <= {e_max}, {} samples):", n);
     println!("  neo_hookean max relative difference {err_neo:.3e}");
     println!("  skalak      max relative difference {err_sk:.3e}");
     println!();

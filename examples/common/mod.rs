@@ -18,34 +18,67 @@ pub fn exit_on_error(result: BoxResult<()>) {
     }
 }
 
-/// Command-line flags `--key value` and bare `--flag`.
+/// Command-line flags `--key value` and bare `--flag`, checked against the example's header.
+///
+/// The header (the leading `//!` lines of the example's source) is the one place an example's
+/// flags are described: `--help` prints it, and a flag it does not name is refused with exit
+/// status 2 before anything runs, so a misspelt flag never silently runs the default case.
 pub struct Args {
     map: HashMap<String, String>,
+    known: Vec<String>,
 }
 
 impl Args {
-    /// Parses `std::env::args()`.
-    pub fn parse() -> Self {
-        let mut map = HashMap::new();
-        let args: Vec<String> = std::env::args().skip(1).collect();
-        let mut i = 0;
-        while i < args.len() {
-            if let Some(key) = args[i].strip_prefix("--") {
-                let has_value = i + 1 < args.len() && !args[i + 1].starts_with("--");
-                let value = if has_value { args[i + 1].clone() } else { String::new() };
-                map.insert(key.to_string(), value);
-                i += if has_value { 2 } else { 1 };
-            } else {
-                eprintln!("ignoring argument `{}`", args[i]);
-                i += 1;
+    /// Parses `std::env::args()` against `source`, the example's own text
+    /// (`include_str!("name.rs")`): every `--name` of its header is a known flag.
+    pub fn parse(source: &str) -> Self {
+        let help = header(source);
+        let argv: Vec<String> = std::env::args().skip(1).collect();
+        match Self::from_list(&help, &argv) {
+            Ok(args) => args,
+            Err(msg) if msg.is_empty() => {
+                println!("{help}");
+                std::process::exit(0)
+            }
+            Err(msg) => {
+                eprintln!("error: {msg}\n(`--help` lists the flags)");
+                std::process::exit(2)
             }
         }
-        Args { map }
+    }
+
+    /// Parses `argv` against the header `help`; `Err("")` asks for the help text.
+    fn from_list(help: &str, argv: &[String]) -> Result<Self, String> {
+        let known = flag_names(help);
+        let mut map = HashMap::new();
+        let mut i = 0;
+        while i < argv.len() {
+            let key = match argv[i].strip_prefix("--") {
+                Some("help") => return Err(String::new()),
+                Some(key) if known.iter().any(|k| k == key) => key,
+                Some(key) => return Err(format!("unknown flag --{key}")),
+                None if argv[i] == "-h" => return Err(String::new()),
+                None => return Err(format!("unexpected argument `{}` (flags start with --)", argv[i])),
+            };
+            let has_value = i + 1 < argv.len() && !argv[i + 1].starts_with("--");
+            let value = if has_value { argv[i + 1].clone() } else { String::new() };
+            if map.insert(key.to_string(), value).is_some() {
+                return Err(format!("--{key} given twice"));
+            }
+            i += if has_value { 2 } else { 1 };
+        }
+        Ok(Args { map, known })
+    }
+
+    /// The value of `key`, which the header must name (a fault of the example, not of its user).
+    fn raw(&self, key: &str) -> Option<&String> {
+        assert!(self.known.iter().any(|k| k == key), "the example's header does not describe --{key}");
+        self.map.get(key)
     }
 
     /// A flag's value parsed as `T`, or `default`; exits with a message on a bad value.
     pub fn get<T: std::str::FromStr>(&self, key: &str, default: T) -> T {
-        match self.map.get(key) {
+        match self.raw(key) {
             None => default,
             Some(v) => v.parse().unwrap_or_else(|_| {
                 eprintln!("error: --{key} {v}: not a valid value");
@@ -56,7 +89,7 @@ impl Args {
 
     /// A flag's value if given.
     pub fn opt<T: std::str::FromStr>(&self, key: &str) -> Option<T> {
-        self.map.get(key).map(|v| {
+        self.raw(key).map(|v| {
             v.parse().unwrap_or_else(|_| {
                 eprintln!("error: --{key} {v}: not a valid value");
                 std::process::exit(2)
@@ -66,18 +99,48 @@ impl Args {
 
     /// Whether a bare flag is present.
     pub fn flag(&self, key: &str) -> bool {
-        self.map.contains_key(key)
+        self.raw(key).is_some()
     }
 
     /// The output folder (`--out`, default `out/<name>`), created.
     pub fn out_dir(&self, name: &str) -> PathBuf {
-        let dir = PathBuf::from(self.map.get("out").cloned().unwrap_or_else(|| format!("out/{name}")));
+        let dir = PathBuf::from(self.raw("out").cloned().unwrap_or_else(|| format!("out/{name}")));
         if let Err(e) = std::fs::create_dir_all(&dir) {
             eprintln!("error: cannot create {}: {e}", dir.display());
             std::process::exit(1);
         }
         dir
     }
+}
+
+/// The leading `//!` lines of an example's source, without the markers.
+fn header(source: &str) -> String {
+    let lines: Vec<&str> = source
+        .lines()
+        .map_while(|l| l.strip_prefix("//!"))
+        .map(|l| l.strip_prefix(' ').unwrap_or(l))
+        .collect();
+    lines.join("\n")
+}
+
+/// Every `--name` in `help` (letters, digits and `-` after the dashes). On a line that shows a
+/// `cargo` command, only what follows its `-- ` separator counts (not `--release`).
+fn flag_names(help: &str) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for line in help.lines() {
+        let line = match line.contains("cargo ") {
+            true => line.split_once("-- ").map_or("", |(_, after)| after),
+            false => line,
+        };
+        for (at, _) in line.match_indices("--") {
+            let name: String =
+                line[at + 2..].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '-').collect();
+            if name.starts_with(|c: char| c.is_ascii_alphabetic()) && !names.contains(&name) {
+                names.push(name);
+            }
+        }
+    }
+    names
 }
 
 /// Observed order of convergence between two errors at resolutions `n1 < n2`.
