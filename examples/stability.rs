@@ -14,8 +14,8 @@
 //!   fit `dt = C mu^a h^b E_s^c` per coupling, `RESULT fit=explicit c=... mu_exp=... ...`;
 //! - `breakup`: `Ca = 0.2, 0.4, ... 6.4` at a fixed `dt` to `t = --t-end` (6): where the method
 //!   fails or the capsule breaks up, `RESULT case=breakup ca=... ...` per capillary number;
-//! - `long`: `--steps` (10^4) steps of `--dt` (0.01) of the `Ca = 0.05` capsule (or `--case`)
-//!   on a coarse grid (`--n 12`),
+//! - `long`: `--steps` (10^4) steps of `--dt` (5e-4) of the `Ca = 0.05` capsule (or `--case`)
+//!   on a coarse grid (`--n 16`, capsule radius 4 cells), as `tests/stability.rs` runs it,
 //!   `RESULT case=long_... steps=... volume_drift=... area_drift=... elastic_max=...`.
 //!
 //! Flags: `--n N` (16; cells along x of the 4-wide box), `--mode M`, `--t-end T`, `--only CASE`
@@ -52,7 +52,7 @@ fn start() -> Res {
         "long" => {
             let name: String = args.get("case", "coarse".to_string());
             let case = cases().into_iter().find(|c| c.name == name).unwrap_or(Case::shear("coarse", 0.05));
-            long(&case, args.get("n", 12), args.get("dt", 0.01), args.get("steps", 10_000), &out)
+            long(&case, args.get("n", 16), args.get("dt", 5e-4), args.get("steps", 10_000), &out)
         }
         m => Err(format!("--mode {m}: one of cases, sweep, breakup, long").into()),
     }
