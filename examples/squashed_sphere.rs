@@ -438,7 +438,7 @@ fn convergence(args: &Args, gamma: f64, out: &std::path::Path) -> Result<(), Box
         &["n_coarse", "quantity_phi0_v1_p2_vcell3", "l1", "l2", "linf", "paper_l1", "paper_l2", "paper_linf"],
     )?;
     println!("Table 2 (t = {t_end}): differences between N and 2N; paper's values in brackets");
-    println!("{:>4} {:>5} {:>22} {:>22} {:>22}", "qty", "N", "L1", "L2", "Linf");
+    println!("{:>6} {:>5} {:>22} {:>22} {:>22}", "qty", "N", "L1", "L2", "Linf");
     let mut orders = [[0.0; 3]; 4];
     let quantities = PAPER.iter().copied().chain([("v_cell", PAPER[1].1)]);
     for (q, (name, paper)) in quantities.enumerate() {
@@ -446,7 +446,7 @@ fn convergence(args: &Args, gamma: f64, out: &std::path::Path) -> Result<(), Box
             let pi = (n / 16).trailing_zeros() as usize; // 16 -> 0, 32 -> 1, ...
             let pv = paper.get(pi).copied().unwrap_or([f64::NAN; 3]);
             let e = errs[q];
-            let mut line = format!("{name:>4} {n:>5}");
+            let mut line = format!("{name:>6} {n:>5}");
             for k in 0..3 {
                 let ord = if r > 0 {
                     let o = order(rows[r - 1].1[q][k], e[k], rows[r - 1].0 as f64, *n as f64);
