@@ -326,6 +326,19 @@ fn centred(g: &Grid<f64>, f: &Field<f64>, d: usize) -> Field<f64> {
     c
 }
 
+/// The norms of a vector averaged over its components, as the paper does for `v` (Sec. 3.2:
+/// `L(v) = (L(v_1) + L(v_2) + L(v_3)) / 3`); `norms_of(d)` gives component `d`'s.
+fn component_mean(norms_of: impl Fn(usize) -> [f64; 3]) -> [f64; 3] {
+    let mut mean = [0.0; 3];
+    for d in 0..3 {
+        let e = norms_of(d);
+        for q in 0..3 {
+            mean[q] += e[q] / 3.0;
+        }
+    }
+    mean
+}
+
 /// L1, L2, Linf of (3.1).
 fn norms(a: &[f64], b: &[f64]) -> [f64; 3] {
     let n = a.len() as f64;
@@ -412,25 +425,17 @@ fn convergence(args: &Args, gamma: f64, out: &std::path::Path) -> Result<(), Box
         let (c, f) = (&sims[w], &sims[w + 1]);
         let (gc, gf) = (c.grid(), f.grid());
         let phi = norms(&interior(gc, c.phi(0)?), &restrict_cells(gf, f.phi(0)?, gc));
-        let mut v = [0.0; 3];
-        for d in 0..3 {
-            let e = norms(&interior(gc, &c.velocity().c[d]), &restrict_faces(gf, &f.velocity().c[d], gc, d));
-            for q in 0..3 {
-                v[q] += e[q] / 3.0;
-            }
-        }
+        let v = component_mean(|d| {
+            norms(&interior(gc, &c.velocity().c[d]), &restrict_faces(gf, &f.velocity().c[d], gc, d))
+        });
         let p =
             norms(&zero_mean(interior(gc, c.pressure())), &zero_mean(restrict_cells(gf, f.pressure(), gc)));
         // The same velocity at cell centres (the mean of a cell's two faces), the fine one
         // averaged over the eight fine cells of each coarse cell: (3.1) indexes q by cell.
-        let mut v_cell = [0.0; 3];
-        for d in 0..3 {
+        let v_cell = component_mean(|d| {
             let (vc, vf) = (centred(gc, &c.velocity().c[d], d), centred(gf, &f.velocity().c[d], d));
-            let e = norms(&interior(gc, &vc), &restrict_cells(gf, &vf, gc));
-            for q in 0..3 {
-                v_cell[q] += e[q] / 3.0;
-            }
-        }
+            norms(&interior(gc, &vc), &restrict_cells(gf, &vf, gc))
+        });
         rows.push((ns[w], [phi, v, p, v_cell]));
     }
     let mut csv = CsvWriter::create(
