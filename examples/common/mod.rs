@@ -35,8 +35,8 @@ impl Args {
         let help = header(source);
         let argv: Vec<String> = std::env::args().skip(1).collect();
         match Self::from_list(&help, &argv) {
-            Ok(args) => args,
-            Err(msg) if msg.is_empty() => {
+            Ok(Some(args)) => args,
+            Ok(None) => {
                 println!("{help}");
                 std::process::exit(0)
             }
@@ -47,17 +47,17 @@ impl Args {
         }
     }
 
-    /// Parses `argv` against the header `help`; `Err("")` asks for the help text.
-    fn from_list(help: &str, argv: &[String]) -> Result<Self, String> {
+    /// Parses `argv` against the header `help`; `None` where it asks for the help text.
+    fn from_list(help: &str, argv: &[String]) -> Result<Option<Self>, String> {
         let known = flag_names(help);
         let mut map = HashMap::new();
         let mut i = 0;
         while i < argv.len() {
             let key = match argv[i].strip_prefix("--") {
-                Some("help") => return Err(String::new()),
+                Some("help") => return Ok(None),
                 Some(key) if known.iter().any(|k| k == key) => key,
                 Some(key) => return Err(format!("unknown flag --{key}")),
-                None if argv[i] == "-h" => return Err(String::new()),
+                None if argv[i] == "-h" => return Ok(None),
                 None => return Err(format!("unexpected argument `{}` (flags start with --)", argv[i])),
             };
             let has_value = i + 1 < argv.len() && !argv[i + 1].starts_with("--");
@@ -67,7 +67,7 @@ impl Args {
             }
             i += if has_value { 2 } else { 1 };
         }
-        Ok(Args { map, known })
+        Ok(Some(Args { map, known }))
     }
 
     /// The value of `key`, which the header must name (a fault of the example, not of its user).
