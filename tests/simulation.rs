@@ -322,3 +322,53 @@ fn reference_area_and_elastic_energy_of_a_prestretched_capsule() {
     let e = sim.elastic_energy();
     assert!((e / (w * s) - 1.0).abs() < 1e-10, "{e} {}", w * s);
 }
+
+#[test]
+fn conserve_reference_area_keeps_the_membranes_reference_area() {
+    let build = |conserve: bool| -> Simulation<f64> {
+        let settings = Settings { conserve_reference_area: conserve, ..Settings::default() };
+        Scene::new(box16(), fluid())
+            .capsule(Sphere::new([0.5, 0.5, 0.5], 0.3).unwrap())
+            .elasticity(NeoHookean::new(2.0).unwrap())
+            .settings(settings)
+            .build()
+            .unwrap()
+    };
+    let run = |conserve: bool, lambda: Option<f64>| -> (f64, Simulation<f64>) {
+        let mut sim = build(conserve);
+        if let Some(l) = lambda {
+            sim.prestretch(0, l).unwrap();
+        }
+        stir(&mut sim);
+        let s0 = sim.reference_area(0).unwrap().unwrap();
+        for _ in 0..20 {
+            sim.step(2e-3).unwrap();
+        }
+        (s0, sim)
+    };
+    // Without the correction the stirred membrane's reference area drifts ...
+    let (s0, sim) = run(false, None);
+    let s = sim.reference_area(0).unwrap().unwrap();
+    assert!((s / s0 - 1.0).abs() > 1e-6, "{s} {s0}");
+    // ... with it, it keeps its initial value, also the one a pre-stretch sets, ...
+    for lambda in [None, Some(1.1)] {
+        let (s0, sim) = run(true, lambda);
+        let s = sim.reference_area(0).unwrap().unwrap();
+        assert!((s / s0 - 1.0).abs() < 1e-12, "{lambda:?}: {s} {s0}");
+    }
+    // ... and a checkpoint carries that target into a simulation built without the pre-stretch.
+    let dir = std::env::temp_dir().join(format!("em_sim_s0_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("state.ckpt");
+    let (_, mut a) = run(true, Some(1.1));
+    a.checkpoint(&path).unwrap();
+    let mut b = build(true);
+    b.restore(&path).unwrap();
+    for _ in 0..5 {
+        a.step(2e-3).unwrap();
+        b.step(2e-3).unwrap();
+    }
+    let (sa, sb) = (a.reference_area(0).unwrap().unwrap(), b.reference_area(0).unwrap().unwrap());
+    assert_eq!(sa.to_bits(), sb.to_bits(), "{sa} {sb}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -7,6 +7,7 @@ use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::interface::geometry::{Band as PhiBand, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
 use crate::interface::{Advector, Geometry, NormalScheme};
+use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
 use crate::membrane::{Band, Bending, BendingForm, InPlaneElasticity, StrainTransport, fill_projector};
 use crate::{Real, Result};
 
@@ -41,6 +42,29 @@ pub(crate) struct Capsule<T: Real> {
     bending_form: BendingForm,
     /// Saved AB2 history of the advector (restored when a step fails).
     saved: (Option<T>, Vec<T>, Vec<T>),
+    /// The reference area `sum delta / j_s h^3` that [`Settings::conserve_reference_area`]
+    /// restores after each step (set from the initial state and by a pre-stretch).
+    pub(crate) reference_target: f64,
+}
+
+/// `sum delta q / j_s h^3` over the band of `level`: the integral of `q` (a function of the
+/// surface kinematics of `gs`) over the membrane's reference area (`dA_R = dA / j_s`,
+/// `j_s = sqrt(c2)`; cells with `c2 <= 0` left out).
+pub(crate) fn reference_integral<T: Real>(
+    grid: &Grid<T>,
+    l: &Level<T>,
+    gs: &SymField<T>,
+    q: impl Fn(&SurfaceKinematics<T>) -> T,
+) -> f64 {
+    let mut s = 0.0;
+    for &idx in l.band.cells() {
+        let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
+        let k = surface_kinematics(&gs.get(idx), &n);
+        if k.c2 > T::zero() {
+            s += (l.delta.data[idx] * q(&k) / k.c2.sqrt()).f64();
+        }
+    }
+    s * grid.cell_volume().f64()
 }
 
 /// `phi` range where the geometry (normals, `delta`) is evaluated: wide enough for the
@@ -120,7 +144,7 @@ impl<T: Real> Capsule<T> {
             fill_projector(grid, &cur.normal, &mut gs);
             gs
         });
-        Ok(Capsule {
+        let mut cap = Capsule {
             cur,
             next,
             gs,
@@ -137,7 +161,32 @@ impl<T: Real> Capsule<T> {
             },
             bending_form: settings.bending_form,
             saved: (None, Vec::new(), Vec::new()),
-        })
+            reference_target: 0.0,
+        };
+        cap.set_reference_target(grid);
+        Ok(cap)
+    }
+
+    /// Records the current reference area as the one to conserve.
+    pub(crate) fn set_reference_target(&mut self, grid: &Grid<T>) {
+        if let Some(gs) = &self.gs {
+            self.reference_target = reference_integral(grid, &self.cur, gs, |_| T::one());
+        }
+    }
+
+    /// Rescales `G_s` on the band by `lambda = s_0 / s_0(target)`, so that the reference area
+    /// `sum delta / j_s h^3` (which scales as `1 / lambda`) returns to its target.
+    pub(crate) fn restore_reference_area(&mut self, grid: &Grid<T>) {
+        let Some(gs) = self.gs.as_mut() else { return };
+        let s0 = reference_integral(grid, &self.cur, gs, |_| T::one());
+        if !(s0 > 0.0 && self.reference_target > 0.0) {
+            return;
+        }
+        let lambda = T::lit(s0 / self.reference_target);
+        for &idx in self.cur.band.cells() {
+            let g = gs.get(idx);
+            gs.set(idx, &std::array::from_fn(|k| g[k] * lambda));
+        }
     }
 
     /// Steps 1-3 of the time step for this capsule: advects `phi` (and `kappa_R tilde`) with

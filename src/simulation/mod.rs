@@ -75,7 +75,7 @@ use crate::fluid::{BodyForce, Coefficient, Forcing, ImplicitTerm, Materials};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::membrane::Band;
 use crate::membrane::SurfaceLaw;
-use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
+use crate::membrane::stress::SurfaceKinematics;
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
 use capsule::Capsule;
@@ -314,6 +314,9 @@ impl<T: Real> Simulation<T> {
                 }
             }
             cap.commit();
+            if self.settings.conserve_reference_area {
+                cap.restore_reference_area(grid);
+            }
             band_cells += cap.cur.band.len();
         }
         Ok(StepReport { flow: flow_info, profile_cells, band_cells })
@@ -481,6 +484,7 @@ impl<T: Real> Simulation<T> {
         if let Some(s) = cap.strain.as_mut() {
             s.reset_history();
         }
+        cap.set_reference_target(grid);
         Ok(())
     }
 
@@ -501,7 +505,8 @@ impl<T: Real> Simulation<T> {
     /// Reference (unstressed) area `sum delta / j_s h^3` of the membrane of capsule `c`, with
     /// `j_s = sqrt(c2)` the local area dilation of `G_s` (`None` without elasticity). In the
     /// continuum it keeps its initial value; its drift measures how much the discrete
-    /// transports of `G_s` (2.40) and of `phi` disagree on the change of area.
+    /// transports of `G_s` (2.40) and of `phi` disagree on the change of area (with
+    /// [`Settings::conserve_reference_area`] the step holds it at its initial value).
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule.
@@ -531,16 +536,7 @@ impl<T: Real> Simulation<T> {
         gs: &SymField<T>,
         q: impl Fn(&SurfaceKinematics<T>) -> T,
     ) -> f64 {
-        let l = &cap.cur;
-        let mut s = 0.0;
-        for &idx in l.band.cells() {
-            let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
-            let k = surface_kinematics(&gs.get(idx), &n);
-            if k.c2 > T::zero() {
-                s += (l.delta.data[idx] * q(&k) / k.c2.sqrt()).f64();
-            }
-        }
-        s * self.grid.cell_volume().f64()
+        capsule::reference_integral(&self.grid, &cap.cur, gs, q)
     }
 
     /// The terms of the energy budget of Sec. 3.2 at the current time: kinetic and elastic

@@ -54,7 +54,7 @@ impl<T: Real> Simulation<T> {
     }
 
     /// Writes the whole state (flow with its time history, every capsule's `phi`,
-    /// `kappa_R tilde`, `G_s` and AB2 histories) atomically to `path`. A simulation restored
+    /// `kappa_R tilde`, `G_s`, reference-area target and AB2 histories) atomically to `path`. A simulation restored
     /// from it by [`restore`](Self::restore) continues bit for bit like the uninterrupted one.
     pub fn checkpoint(&self, path: impl AsRef<Path>) -> Result<()> {
         let mut w = CheckpointWriter::new();
@@ -70,6 +70,7 @@ impl<T: Real> Simulation<T> {
                 for (k, f) in gs.c.iter().enumerate() {
                     w.array(&format!("{p}gs{k}"), &f.data);
                 }
+                w.number(&format!("{p}reference_target"), cap.reference_target);
             }
             if let Some((dt_prev, rp, rk)) = cap.advector.history() {
                 w.number(&format!("{p}adv_dt_prev"), dt_prev.f64());
@@ -138,11 +139,16 @@ impl<T: Real> Simulation<T> {
             } else {
                 None
             };
-            read.push((phi, kappa, gs, adv, strain));
+            let target_name = format!("{p}reference_target");
+            let target = if r.has(&target_name) { Some(r.number(&target_name)?) } else { None };
+            read.push((phi, kappa, gs, adv, strain, target));
         }
         // Then replace: the flow first (it validates the grid), then the capsules.
         self.flow.restore(&r, "flow.")?;
-        for (cap, (phi, kappa, gs, adv, strain)) in self.capsules.iter_mut().zip(read) {
+        for (cap, (phi, kappa, gs, adv, strain, target)) in self.capsules.iter_mut().zip(read) {
+            if let Some(t) = target {
+                cap.reference_target = t;
+            }
             cap.cur.phi = phi;
             cap.cur.kappa = kappa;
             cap.gs = gs;

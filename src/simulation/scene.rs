@@ -86,6 +86,9 @@ pub struct Settings<T> {
     /// discrete transport lets normal components grow, which feed the in-plane block through
     /// the velocity gradient. Not in the paper. Default `false`.
     pub tangential_gs: bool,
+    /// Rescales `G_s` on each capsule's band after every step so that the membrane's reference
+    /// area `sum delta / j_s h^3` keeps its initial value. Not in the paper. Default `false`.
+    pub conserve_reference_area: bool,
     /// Face reconstruction in the advection of `G_s` (2.40). Default
     /// [`StrainAdvection::Upwind3`] (the paper's); [`StrainAdvection::Upwind5`] is more accurate
     /// and less dissipative.
@@ -119,6 +122,7 @@ impl<T: Real> Default for Settings<T> {
             smoothing: Smoothing::default(),
             coupling: MembraneCoupling::default(),
             tangential_gs: false,
+            conserve_reference_area: false,
             strain_advection: StrainAdvection::default(),
             bending_form: BendingForm::Divergence,
         }
