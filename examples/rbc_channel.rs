@@ -16,7 +16,9 @@
 //! velocity `u(z)` on `y = 0.25` with and without cells (Fig. 17, `profile.csv`), and the
 //! parachute signature `rear_concavity` (how far the centre of each cell's trailing face lies
 //! ahead of the face at 0.6 a from the axis; positive = concave trailing face):
-//! `RESULT case=... rear_concavity=... volume_drift=... wall_s=...`.
+//! `RESULT case=... n=... t=... rear_concavity=... volume_drift=... failed_at=... wall_s=...`
+//! (`t` the time reached; a failed step ends the run there, and the figures show the last good
+//! state). The progress lines print `rear_concavity` as the run goes.
 //!
 //! `--case many`: `--cells` cells (8) of `a = 0.06` on a lattice, periodic x and y (walls
 //! in z), `mu = 0.5 / 0.1`, `E_s = 0.1`, `alpha = 10`, `E_b = 5e-6`, `dt = 0.00025` (Sec. 3.4.3),
@@ -289,10 +291,34 @@ fn two(
     let mut max_drift = 0.0f64;
     let mut snaps: Vec<(f64, Vec<Field<f64>>)> = Vec::new();
     let mut next_snap = 0.0;
+    let concavities = |sim: &Simulation<f64>| -> Vec<f64> {
+        (0..centres.len())
+            .map(|c| {
+                let (phi, centre) =
+                    (sim.phi(c).expect("capsule exists"), sim.centroid(c).expect("capsule exists"));
+                rear_concavity(&g, phi, centre, p.radius).unwrap_or(f64::NAN)
+            })
+            .collect()
+    };
+    let mut failed = None;
     for s in 0..=steps {
         if s > 0 {
-            sim.step(dt)?;
-            common::progress(s, steps, sim.time(), &clock, &format!("x1={:.3}", sim.centroid(0)?[0]));
+            let t_before = sim.time();
+            if let Err(e) = sim.step(dt) {
+                // Keep what the run reached: the figures below are drawn at the last good step.
+                eprintln!("  {case}: the step at t = {t_before:.3} failed: {e}");
+                failed = Some(t_before);
+                snaps.push((
+                    t_before,
+                    (0..centres.len()).map(|c| sim.phi(c).cloned()).collect::<Result<_, _>>()?,
+                ));
+                break;
+            }
+            if common::progress_due(s, steps) {
+                let conc = concavities(&sim).iter().map(|c| format!("{c:.4}")).collect::<Vec<_>>().join(",");
+                let x1 = sim.centroid(0)?[0];
+                common::progress(s, steps, sim.time(), &clock, &format!("x1={x1:.3} rear_concavity={conc}"));
+            }
         }
         let t = sim.time();
         for (c, v) in v0.iter().enumerate() {
@@ -330,28 +356,20 @@ fn two(
         out.join(format!("{case}_profile.csv")),
         &[("z", &z), ("u_with_cells", &with), ("u_without", &without)],
     )?;
-    let mut pf = Figure::new(format!("streamwise-averaged u on y = 0.25, t = {t_end} (Fig. 17)"))
+    let mut pf = Figure::new(format!("streamwise-averaged u on y = 0.25, t = {:.2} (Fig. 17)", sim.time()))
         .x_label("z")
         .y_label("u");
     pf.line(&z, &with, case);
     pf.line(&z, &without, "without cells");
     pf.save(out.join(format!("{case}_profile.svg")))?;
-    let conc: Vec<f64> = (0..centres.len())
-        .map(|c| {
-            rear_concavity(
-                &g,
-                sim.phi(c).expect("capsule exists"),
-                sim.centroid(c).expect("capsule exists"),
-                p.radius,
-            )
-            .unwrap_or(f64::NAN)
-        })
-        .collect();
+    let conc = concavities(&sim);
     result(&[
         ("case", case.to_string()),
         ("n", n.to_string()),
+        ("t", format!("{:.3}", sim.time())),
         ("rear_concavity", conc.iter().map(|c| num(*c)).collect::<Vec<_>>().join(",")),
         ("volume_drift", num(max_drift)),
+        ("failed_at", failed.map_or("none".to_string(), |t| format!("{t:.3}"))),
         ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
     ]);
     Ok(())
