@@ -460,6 +460,8 @@ impl<T: Real> Simulation<T> {
     /// Pre-stretches the membrane of capsule `c` isotropically by `lambda` (current over
     /// reference length): `G_s = lambda^2 P` with the current normals, so that the capsule's
     /// reference state is smaller than its shape (`lambda > 1`, an inflated capsule) or larger.
+    /// The reference area `sum delta / j_s h^3` this leaves is the one that
+    /// [`Settings::conserve_reference_area`] holds from then on.
     ///
     /// # Errors
     /// `lambda` not finite and `> 0`; a scene without elasticity; an unknown capsule.
