@@ -78,7 +78,7 @@ use crate::membrane::SurfaceLaw;
 use crate::membrane::stress::SurfaceKinematics;
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
-use capsule::Capsule;
+use capsule::{Capsule, reference_integral};
 use forces::{SumForcing, SumImplicit, SurfaceForcing};
 use std::sync::Arc;
 
@@ -514,7 +514,7 @@ impl<T: Real> Simulation<T> {
     /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule.
     pub fn reference_area(&self, c: usize) -> Result<Option<f64>> {
         let cap = self.capsule(c)?;
-        Ok(cap.gs.as_ref().map(|gs| self.reference_integral(cap, gs, |_| T::one())))
+        Ok(cap.gs.as_ref().map(|gs| reference_integral(&self.grid, &cap.cur, gs, |_| T::one())))
     }
 
     /// Elastic energy `sum delta W_s / j_s h^3` over the membrane bands (zero without
@@ -525,20 +525,8 @@ impl<T: Real> Simulation<T> {
         let energy = |k: &SurfaceKinematics<T>| law.energy(k.c1, k.c2);
         self.capsules
             .iter()
-            .filter_map(|cap| Some(self.reference_integral(cap, cap.gs.as_ref()?, energy)))
+            .filter_map(|cap| Some(reference_integral(&self.grid, &cap.cur, cap.gs.as_ref()?, energy)))
             .sum()
-    }
-
-    /// `sum delta q / j_s h^3` over the band of `cap` at the current time: the integral of `q`
-    /// (a function of the surface kinematics of `gs`) over the membrane's reference area
-    /// (`dA_R = dA / j_s`, `j_s = sqrt(c2)`; cells with `c2 <= 0` left out).
-    fn reference_integral(
-        &self,
-        cap: &Capsule<T>,
-        gs: &SymField<T>,
-        q: impl Fn(&SurfaceKinematics<T>) -> T,
-    ) -> f64 {
-        capsule::reference_integral(&self.grid, &cap.cur, gs, q)
     }
 
     /// The terms of the energy budget of Sec. 3.2 at the current time: kinetic and elastic
