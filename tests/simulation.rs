@@ -351,16 +351,17 @@ fn conserve_reference_area_keeps_the_membranes_reference_area() {
     let s = sim.reference_area(0).unwrap().unwrap();
     assert!((s / s0 - 1.0).abs() > 1e-6, "{s} {s0}");
     // ... with it, it keeps its initial value, also the one a pre-stretch sets, ...
-    for lambda in [None, Some(1.1)] {
+    let mut kept = [None, Some(1.1)].map(|lambda| {
         let (s0, sim) = run(true, lambda);
         let s = sim.reference_area(0).unwrap().unwrap();
         assert!((s / s0 - 1.0).abs() < 1e-12, "{lambda:?}: {s} {s0}");
-    }
+        sim
+    });
     // ... and a checkpoint carries that target into a simulation built without the pre-stretch.
     let dir = std::env::temp_dir().join(format!("em_sim_s0_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("state.ckpt");
-    let (_, mut a) = run(true, Some(1.1));
+    let a = &mut kept[1];
     a.checkpoint(&path).unwrap();
     let mut b = build(true);
     b.restore(&path).unwrap();

@@ -43,8 +43,9 @@ pub(crate) struct Capsule<T: Real> {
     /// Saved AB2 history of the advector (restored when a step fails).
     saved: (Option<T>, Vec<T>, Vec<T>),
     /// The reference area `sum delta / j_s h^3` that [`Settings::conserve_reference_area`]
-    /// restores after each step (set from the initial state and by a pre-stretch).
-    pub(crate) reference_target: f64,
+    /// restores after each step (set from the initial state and by a pre-stretch); `None`
+    /// without that setting or without elasticity.
+    pub(crate) reference_target: Option<f64>,
 }
 
 /// `sum delta q / j_s h^3` over the band of `level`: the integral of `q` (a function of the
@@ -161,28 +162,37 @@ impl<T: Real> Capsule<T> {
             },
             bending_form: settings.bending_form,
             saved: (None, Vec::new(), Vec::new()),
-            reference_target: 0.0,
+            reference_target: None,
         };
-        cap.set_reference_target(grid);
+        if settings.conserve_reference_area {
+            cap.reference_target = cap.reference_area(grid);
+        }
         Ok(cap)
     }
 
-    /// Records the current reference area as the one to conserve.
-    pub(crate) fn set_reference_target(&mut self, grid: &Grid<T>) {
-        if let Some(gs) = &self.gs {
-            self.reference_target = reference_integral(grid, &self.cur, gs, |_| T::one());
+    /// The reference area `sum delta / j_s h^3` of the current level (`None` without
+    /// elasticity).
+    pub(crate) fn reference_area(&self, grid: &Grid<T>) -> Option<f64> {
+        self.gs.as_ref().map(|gs| reference_integral(grid, &self.cur, gs, |_| T::one()))
+    }
+
+    /// Makes the current reference area the one to conserve (where one is conserved).
+    pub(crate) fn reset_reference_target(&mut self, grid: &Grid<T>) {
+        if self.reference_target.is_some() {
+            self.reference_target = self.reference_area(grid);
         }
     }
 
     /// Rescales `G_s` on the band by `lambda = s_0 / s_0(target)`, so that the reference area
-    /// `sum delta / j_s h^3` (which scales as `1 / lambda`) returns to its target.
+    /// `sum delta / j_s h^3` (which scales as `1 / lambda`) returns to its target. Nothing
+    /// without a target.
     pub(crate) fn restore_reference_area(&mut self, grid: &Grid<T>) {
+        let (Some(target), Some(s0)) = (self.reference_target, self.reference_area(grid)) else { return };
         let Some(gs) = self.gs.as_mut() else { return };
-        let s0 = reference_integral(grid, &self.cur, gs, |_| T::one());
-        if !(s0 > 0.0 && self.reference_target > 0.0) {
+        if !(s0 > 0.0 && target > 0.0) {
             return;
         }
-        let lambda = T::lit(s0 / self.reference_target);
+        let lambda = T::lit(s0 / target);
         for &idx in self.cur.band.cells() {
             let g = gs.get(idx);
             gs.set(idx, &std::array::from_fn(|k| g[k] * lambda));

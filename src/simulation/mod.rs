@@ -314,9 +314,7 @@ impl<T: Real> Simulation<T> {
                 }
             }
             cap.commit();
-            if self.settings.conserve_reference_area {
-                cap.restore_reference_area(grid);
-            }
+            cap.restore_reference_area(grid);
             band_cells += cap.cur.band.len();
         }
         Ok(StepReport { flow: flow_info, profile_cells, band_cells })
@@ -486,7 +484,7 @@ impl<T: Real> Simulation<T> {
         if let Some(s) = cap.strain.as_mut() {
             s.reset_history();
         }
-        cap.set_reference_target(grid);
+        cap.reset_reference_target(grid);
         Ok(())
     }
 
@@ -514,7 +512,7 @@ impl<T: Real> Simulation<T> {
     /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule.
     pub fn reference_area(&self, c: usize) -> Result<Option<f64>> {
         let cap = self.capsule(c)?;
-        Ok(cap.gs.as_ref().map(|gs| reference_integral(&self.grid, &cap.cur, gs, |_| T::one())))
+        Ok(cap.reference_area(&self.grid))
     }
 
     /// Elastic energy `sum delta W_s / j_s h^3` over the membrane bands (zero without

@@ -54,8 +54,9 @@ impl<T: Real> Simulation<T> {
     }
 
     /// Writes the whole state (flow with its time history, every capsule's `phi`,
-    /// `kappa_R tilde`, `G_s`, reference-area target and AB2 histories) atomically to `path`. A simulation restored
-    /// from it by [`restore`](Self::restore) continues bit for bit like the uninterrupted one.
+    /// `kappa_R tilde`, `G_s`, reference-area target and AB2 histories) atomically to `path`.
+    /// A simulation restored from it by [`restore`](Self::restore) continues bit for bit like
+    /// the uninterrupted one.
     pub fn checkpoint(&self, path: impl AsRef<Path>) -> Result<()> {
         let mut w = CheckpointWriter::new();
         self.flow.checkpoint(&mut w, "flow.");
@@ -70,7 +71,9 @@ impl<T: Real> Simulation<T> {
                 for (k, f) in gs.c.iter().enumerate() {
                     w.array(&format!("{p}gs{k}"), &f.data);
                 }
-                w.number(&format!("{p}reference_target"), cap.reference_target);
+            }
+            if let Some(target) = cap.reference_target {
+                w.number(&format!("{p}reference_target"), target);
             }
             if let Some((dt_prev, rp, rk)) = cap.advector.history() {
                 w.number(&format!("{p}adv_dt_prev"), dt_prev.f64());
@@ -139,15 +142,21 @@ impl<T: Real> Simulation<T> {
             } else {
                 None
             };
+            // A target only where this scene conserves the reference area (older checkpoints
+            // lack it: the build's target stays).
             let target_name = format!("{p}reference_target");
-            let target = if r.has(&target_name) { Some(r.number(&target_name)?) } else { None };
+            let target = if cap.reference_target.is_some() && r.has(&target_name) {
+                Some(r.number(&target_name)?)
+            } else {
+                None
+            };
             read.push((phi, kappa, gs, adv, strain, target));
         }
         // Then replace: the flow first (it validates the grid), then the capsules.
         self.flow.restore(&r, "flow.")?;
         for (cap, (phi, kappa, gs, adv, strain, target)) in self.capsules.iter_mut().zip(read) {
-            if let Some(t) = target {
-                cap.reference_target = t;
+            if target.is_some() {
+                cap.reference_target = target;
             }
             cap.cur.phi = phi;
             cap.cur.kappa = kappa;
