@@ -300,6 +300,9 @@ fn two(
             })
             .collect()
     };
+    let phis = |sim: &Simulation<f64>| -> eulermembrane::Result<Vec<Field<f64>>> {
+        (0..centres.len()).map(|c| sim.phi(c).cloned()).collect()
+    };
     let mut failed = None;
     for s in 0..=steps {
         if s > 0 {
@@ -308,10 +311,7 @@ fn two(
                 // Keep what the run reached: the figures below are drawn at the last good step.
                 eprintln!("  {case}: the step at t = {t_before:.3} failed: {e}");
                 failed = Some(t_before);
-                snaps.push((
-                    t_before,
-                    (0..centres.len()).map(|c| sim.phi(c).cloned()).collect::<Result<_, _>>()?,
-                ));
+                snaps.push((t_before, phis(&sim)?));
                 break;
             }
             if common::progress_due(s, steps) {
@@ -331,7 +331,7 @@ fn two(
             next_vtk += vtk_every;
         }
         if t >= next_snap - 1e-9 || s == steps {
-            snaps.push((t, (0..centres.len()).map(|c| sim.phi(c).cloned()).collect::<Result<_, _>>()?));
+            snaps.push((t, phis(&sim)?));
             next_snap += t_end / 3.0;
         }
     }
