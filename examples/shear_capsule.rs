@@ -16,7 +16,8 @@
 //! cells), `--dt` (half the paper's `0.001 (128/N)^2`, and within the bending rule with
 //! `--bending`; see `common::shear`), `--t-end` (6), `--bending` (`E_b'`, 0 for none),
 //! `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
-//! `--sweep`, `--tangential-gs`, `--conserve-area` (`Settings::conserve_reference_area`),
+//! `--sweep`, `--tangential-gs`, `--tangent-frame` (`Settings::tangent_frame_gs`),
+//! `--conserve-area` (`Settings::conserve_reference_area`),
 //! `--bending-form divergence|energy` (`Settings::bending_form`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
@@ -103,9 +104,15 @@ fn run() -> BoxResult<()> {
 /// Runs one case in the precision the flags ask for.
 fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
     fn settings<T: eulermembrane::Real>(args: &Args, bending_form: BendingForm) -> Settings<T> {
-        let (tangential_gs, conserve_reference_area) =
-            (args.flag("tangential-gs"), args.flag("conserve-area"));
-        Settings { tangential_gs, conserve_reference_area, bending_form, ..Settings::default() }
+        let (tangential_gs, tangent_frame_gs, conserve_reference_area) =
+            (args.flag("tangential-gs"), args.flag("tangent-frame"), args.flag("conserve-area"));
+        Settings {
+            tangential_gs,
+            tangent_frame_gs,
+            conserve_reference_area,
+            bending_form,
+            ..Settings::default()
+        }
     }
     let form = BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
     if args.flag("f32") {

@@ -23,7 +23,8 @@
 //! Flags: `--n N` (64), `--dt` (`0.02 (16/N)^2`), `--t-end T` (2), `--gamma G` (4), `--epsilon E`
 //! (0.01, the membrane band `delta h >= E`), `--beta B` (1, MTHINC sharpness),
 //! `--tangential-gs` (`Settings::tangential_gs`; with it `energy_err` at N = 64 is 8.7e-3,
-//! without it 1.6e-2, see `docs/validation.md`), `--conserve-area`
+//! without it 1.6e-2, see `docs/validation.md`), `--tangent-frame`
+//! (`Settings::tangent_frame_gs`), `--conserve-area`
 //! (`Settings::conserve_reference_area`), `--strain-advection 3|5` (upwind order of the
 //! `G_s` advection, 3), `--vtk-every S` (0.25, in time units;
 //! 0 for none), `--convergence`, `--max-n N` (128), `--out DIR` (`out/squashed_sphere`).
@@ -65,6 +66,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     settings.epsilon = args.get("epsilon", settings.epsilon);
     settings.advection.beta = args.get("beta", settings.advection.beta);
     settings.tangential_gs = args.flag("tangential-gs");
+    settings.tangent_frame_gs = args.flag("tangent-frame");
     settings.conserve_reference_area = args.flag("conserve-area");
     settings.strain_advection = match args.get("strain-advection", 3u32) {
         3 => StrainAdvection::Upwind3,

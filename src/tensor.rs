@@ -124,9 +124,73 @@ pub fn dot<T: Real>(a: &Vec3<T>, b: &Vec3<T>) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// Cross product `a x b`.
+#[inline]
+pub fn cross<T: Real>(a: &Vec3<T>, b: &Vec3<T>) -> Vec3<T> {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+/// The skew matrix `[a]_x` with `[a]_x y = a x y`.
+#[inline]
+pub fn skew<T: Real>(a: &Vec3<T>) -> Mat3<T> {
+    let z = T::zero();
+    [[z, -a[2], a[1]], [a[2], z, -a[0]], [-a[1], a[0], z]]
+}
+
+/// The rotation `R` of least angle with `R from = to`, for unit vectors at most 60 degrees
+/// apart (`from . to >= 1/2`); `None` otherwise (also for a zero vector). Rodrigues' formula
+/// `R = I + [w]_x + [w]_x^2 / (1 + c)` with `w = from x to`, `c = from . to`.
+#[inline]
+pub fn rotation_taking<T: Real>(from: &Vec3<T>, to: &Vec3<T>) -> Option<Mat3<T>> {
+    let c = dot(from, to);
+    // Also refuses a NaN.
+    if c.partial_cmp(&T::lit(0.5)).is_none_or(|o| o == std::cmp::Ordering::Less) {
+        return None;
+    }
+    let k = skew(&cross(from, to));
+    let k2 = matmul(&k, &k);
+    let f = T::one() / (T::one() + c);
+    Some(std::array::from_fn(|i| {
+        std::array::from_fn(|j| (if i == j { T::one() } else { T::zero() }) + k[i][j] + f * k2[i][j])
+    }))
+}
+
+/// `R A R^T` for a rotation `R` and a symmetric `A`.
+#[inline]
+pub fn rotate<T: Real>(r: &Mat3<T>, a: &Sym<T>) -> Sym<T> {
+    mat_to_sym(&matmul(&matmul(r, &sym_to_mat(a)), &transpose(r)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rotation_taking_maps_one_normal_and_its_projector_onto_the_other() {
+        let norm = |v: [f64; 3]| {
+            let l = dot(&v, &v).sqrt();
+            v.map(|x| x / l)
+        };
+        let (a, b) = (norm([0.3, -0.2, 0.9]), norm([0.1, 0.4, 0.8]));
+        let r = rotation_taking(&a, &b).unwrap();
+        let rt = transpose(&r);
+        let ra = [0, 1, 2].map(|i| dot(&r[i], &a));
+        for i in 0..3 {
+            assert!((ra[i] - b[i]).abs() < 1e-14, "{ra:?} {b:?}");
+            for j in 0..3 {
+                let rrt = dot(&r[i], &[rt[0][j], rt[1][j], rt[2][j]]);
+                assert!((rrt - if i == j { 1.0 } else { 0.0 }).abs() < 1e-14);
+            }
+        }
+        let (pa, pb) = (rotate(&r, &projector(&a)), projector(&b));
+        assert!(pa.iter().zip(&pb).all(|(x, y)| (x - y).abs() < 1e-14), "{pa:?} {pb:?}");
+        // The least rotation turns nothing about the common normal of the two.
+        let axis = norm(cross(&a, &b));
+        let ra = [0, 1, 2].map(|i| dot(&r[i], &axis));
+        assert!(ra.iter().zip(&axis).all(|(x, y)| (x - y).abs() < 1e-14));
+        assert!(rotation_taking(&a, &[-a[0], -a[1], -a[2]]).is_none());
+        assert!(rotation_taking(&a, &[0.0; 3]).is_none());
+    }
 
     #[test]
     fn projector_annihilates_normal_and_is_idempotent() {

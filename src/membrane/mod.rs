@@ -47,8 +47,8 @@ pub use force::{InPlaneElasticity, InPlaneForcing, InPlaneImplicit};
 pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
 pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};
 pub use strain::{
-    StrainAdvection, StrainTransport, advective_tendency, fill_projector, reset_outside_band, upwind3_face,
-    upwind5_face,
+    StrainAdvection, StrainTransport, advective_tendency, advective_tendency_in_frame, fill_projector,
+    reset_outside_band, upwind3_face, upwind5_face,
 };
 pub use stress::{
     Jacobian, SurfaceKinematics, TensionInvariants, energy_density, h_tensor, jacobian, principal_tensions,

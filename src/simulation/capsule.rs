@@ -153,7 +153,11 @@ impl<T: Real> Capsule<T> {
             geometry,
             elastic: law.map(|l| InPlaneElasticity::new(grid, l.clone())),
             strain: match law {
-                Some(_) => Some(StrainTransport::new(grid)?.with_advection(settings.strain_advection)),
+                Some(_) => Some(
+                    StrainTransport::new(grid)?
+                        .with_advection(settings.strain_advection)
+                        .with_tangent_frame(settings.tangent_frame_gs),
+                ),
                 None => None,
             },
             bending: match eb {

@@ -86,6 +86,14 @@ pub struct Settings<T> {
     /// discrete transport lets normal components grow, which feed the in-plane block through
     /// the velocity gradient. Not in the paper. Default `false`.
     pub tangential_gs: bool,
+    /// Transports `G_s` in the tangent frame ([`StrainTransport::with_tangent_frame`]): each
+    /// stencil value of the advection (2.40) is turned into the cell's tangent plane, and the
+    /// stretching term leaves out that turn of the frame along the path, so that the transport
+    /// along a curved shell neither grows a normal part of `G_s` nor loses in-plane stretch.
+    /// Not in the paper. Default `false`.
+    ///
+    /// [`StrainTransport::with_tangent_frame`]: crate::membrane::StrainTransport::with_tangent_frame
+    pub tangent_frame_gs: bool,
     /// Rescales `G_s` on each capsule's band after every step so that the membrane's reference
     /// area `sum delta / j_s h^3` keeps its initial value. Not in the paper. Default `false`.
     pub conserve_reference_area: bool,
@@ -122,6 +130,7 @@ impl<T: Real> Default for Settings<T> {
             smoothing: Smoothing::default(),
             coupling: MembraneCoupling::default(),
             tangential_gs: false,
+            tangent_frame_gs: false,
             conserve_reference_area: false,
             strain_advection: StrainAdvection::default(),
             bending_form: BendingForm::Divergence,
