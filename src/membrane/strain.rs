@@ -52,7 +52,8 @@
 //! `A = [n × (v·∇)n]_×`, is also in the material rotation of the stretching term, leaves it out
 //! there: `∇v → ∇v + A` in the convention of [`stretching`] (`L → L − A`). The squashed
 //! sphere's energy error falls from 1.57e-2 to 4.96e-3 at N = 64, but only from 1.98e-2 to
-//! 1.38e-2 at N = 96 (`docs/validation.md`): not a convergent cure, hence off by default.
+//! 1.38e-2 at N = 96; together with the projection `Settings::tangential_gs` it gives 6.56e-3
+//! and 4.85e-3 (`docs/validation.md`). Off by default.
 //!
 //! # Where it is computed
 //!
