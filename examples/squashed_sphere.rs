@@ -24,7 +24,8 @@
 //! (0.01, the membrane band `delta h >= E`), `--beta B` (1, MTHINC sharpness),
 //! `--tangential-gs` (`Settings::tangential_gs`; with it `energy_err` at N = 64 is 8.7e-3,
 //! without it 1.6e-2, see `docs/validation.md`), `--tangent-frame`
-//! (`Settings::tangent_frame_gs`; 5.0e-3 at N = 64), `--conserve-area`
+//! (`Settings::tangent_frame_gs`; 5.0e-3 at N = 64; both flags together 6.6e-3 at N = 64 and
+//! 4.8e-3 at N = 96, to `t` = 0.7), `--conserve-area`
 //! (`Settings::conserve_reference_area`), `--strain-advection 3|5` (upwind order of the
 //! `G_s` advection, 3), `--vtk-every S` (0.25, in time units;
 //! 0 for none), `--convergence`, `--max-n N` (128), `--out DIR` (`out/squashed_sphere`).
