@@ -191,7 +191,9 @@ impl<T: Real> Capsule<T> {
     /// `sum delta / j_s h^3` (which scales as `1 / lambda`) returns to its target. Nothing
     /// without a target.
     pub(crate) fn restore_reference_area(&mut self, grid: &Grid<T>) {
-        let (Some(target), Some(s0)) = (self.reference_target, self.reference_area(grid)) else { return };
+        // The target first: without it no band pass is made.
+        let Some(target) = self.reference_target else { return };
+        let Some(s0) = self.reference_area(grid) else { return };
         let Some(gs) = self.gs.as_mut() else { return };
         if !(s0 > 0.0 && target > 0.0) {
             return;
