@@ -8,7 +8,7 @@
 
 use super::{Field, Grid, VectorField};
 use crate::Real;
-use crate::tensor::Mat3;
+use crate::tensor::{Mat3, Vec3};
 use rayon::prelude::*;
 
 /// Rows of `dx` values per rayon task, so that a task holds at least a few thousand values (small
@@ -106,6 +106,29 @@ pub fn grad_v_at_cell<T: Real>(grid: &Grid<T>, v: &VectorField<T>, idx: usize) -
                 let dn = c[idx - si] + c[idx - si + sj];
                 quarter * (up - dn) / h[i]
             };
+        }
+    }
+    g
+}
+
+/// The vector of three cell-centred fields (e.g. the unit normal) at cell `idx`.
+#[inline(always)]
+pub fn cell_vector<T: Real>(f: &[Field<T>; 3], idx: usize) -> Vec3<T> {
+    [f[0].data[idx], f[1].data[idx], f[2].data[idx]]
+}
+
+/// Gradient of three cell-centred fields at the centre of cell `idx` by central differences:
+/// `g[i][j] = d f_j / d x_i`. Needs one ghost layer.
+#[inline(always)]
+pub fn grad_cell_vector_at<T: Real>(grid: &Grid<T>, f: &[Field<T>; 3], idx: usize) -> Mat3<T> {
+    let st = grid.strides();
+    let h = grid.h();
+    let mut g = [[T::zero(); 3]; 3];
+    for i in 0..3 {
+        let ih = T::lit(0.5) / h[i];
+        for j in 0..3 {
+            let d = &f[j].data;
+            g[i][j] = (d[idx + st[i]] - d[idx - st[i]]) * ih;
         }
     }
     g

@@ -82,6 +82,7 @@ use super::band::Band;
 use super::force::{face_divergence3, scatter_add};
 use crate::error::positive;
 use crate::fluid::Forcing;
+use crate::grid::ops::{cell_vector, grad_cell_vector_at};
 use crate::grid::{Field, Grid, VectorField};
 use crate::tensor::{Mat3, Vec3, matmul, projector, sym_to_mat};
 use crate::{Error, Real, Result};
@@ -95,18 +96,8 @@ const MIN_CELLS_PER_TASK: usize = 256;
 /// `(∇_h n)[i][j] ≈ ∂n_j/∂x_i`. Positive for a sphere with the inward normal (`κ = P/r`).
 #[inline]
 pub fn curvature_at<T: Real>(grid: &Grid<T>, normal: &[Field<T>; 3], idx: usize) -> Mat3<T> {
-    let st = grid.strides();
-    let h = grid.h();
-    let n = [normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]];
-    let mut gn = [[T::zero(); 3]; 3];
-    for i in 0..3 {
-        let ih = T::lit(0.5) / h[i];
-        for j in 0..3 {
-            let d = &normal[j].data;
-            gn[i][j] = -(d[idx + st[i]] - d[idx - st[i]]) * ih;
-        }
-    }
-    let p = sym_to_mat(&projector(&n));
+    let gn = grad_cell_vector_at(grid, normal, idx).map(|row| row.map(|x| -x));
+    let p = sym_to_mat(&projector(&cell_vector(normal, idx)));
     matmul(&matmul(&p, &gn), &p)
 }
 
@@ -223,7 +214,7 @@ impl<T: Real> Bending<T> {
         let st = grid.strides();
         let h = grid.h();
         let eb = self.eb;
-        let nrm = |idx: usize| [normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]];
+        let nrm = |idx: usize| cell_vector(normal, idx);
 
         // 1. m̃ on the band.
         let band_cells = band.cells();

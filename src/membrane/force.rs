@@ -56,7 +56,7 @@ use super::law::SurfaceLaw;
 use super::stress::{Jacobian, h_tensor, stress_and_jacobian};
 use crate::error::positive;
 use crate::fluid::{Forcing, ImplicitTerm};
-use crate::grid::ops::grad_v_at_cell;
+use crate::grid::ops::{cell_vector, grad_v_at_cell};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::tensor::{Mat3, Sym, sym_to_mat};
 use crate::{Error, Real, Result};
@@ -246,7 +246,7 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
         self.state.par_iter_mut().zip(band.cells().par_iter()).with_min_len(MIN_CELLS_PER_TASK).for_each(
             |(cs, &idx)| {
                 let g = gs.get(idx);
-                let n = [normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]];
+                let n = cell_vector(normal, idx);
                 let (tau, jac) = stress_and_jacobian(law, &g, &n);
                 *cs = CellState { delta: delta.data[idx], g, tau, jac };
             },

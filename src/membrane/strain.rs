@@ -75,7 +75,7 @@
 use super::band::Band;
 use super::stress::stretching;
 use crate::error::positive;
-use crate::grid::ops::{grad_v_at_cell, par_interior_update};
+use crate::grid::ops::{cell_vector, grad_cell_vector_at, grad_v_at_cell, par_interior_update};
 use crate::grid::{Field, GHOST, Grid, SymField, VectorField};
 use crate::tensor::{Mat3, Sym, cross, projector, rotate, rotation_taking, skew};
 use crate::{Error, Real, Result};
@@ -153,14 +153,13 @@ pub fn advective_tendency_in_frame<T: Real>(
     idx: usize,
     scheme: StrainAdvection,
 ) -> Sym<T> {
-    let n_at = |j: usize| [normal[0].data[j], normal[1].data[j], normal[2].data[j]];
-    let ni = n_at(idx);
+    let ni = cell_vector(normal, idx);
     tendency_from(grid, v, idx, scheme, |j| {
         let g = gs.get(j);
         if j == idx {
             return g;
         }
-        match rotation_taking(&n_at(j), &ni) {
+        match rotation_taking(&cell_vector(normal, j), &ni) {
             Some(r) => rotate(&r, &g),
             None => g,
         }
@@ -179,21 +178,19 @@ fn frame_turn<T: Real>(
     normal: &[Field<T>; 3],
     idx: usize,
 ) -> Mat3<T> {
-    let (st, h) = (grid.strides(), grid.h());
-    let n_at = |j: usize| [normal[0].data[j], normal[1].data[j], normal[2].data[j]];
+    let st = grid.strides();
+    let gn = grad_cell_vector_at(grid, normal, idx);
     let quarter = T::lit(0.25);
     let mut w = [T::zero(); 3];
     for d in 0..3 {
         let s = st[d];
         let (a, b) = (&v_a.c[d].data, &v_b.c[d].data);
         let vc = quarter * (a[idx] + a[idx + s] + b[idx] + b[idx + s]);
-        let (np, nm) = (n_at(idx + s), n_at(idx - s));
-        let f = vc / (T::lit(2.0) * h[d]);
         for q in 0..3 {
-            w[q] += f * (np[q] - nm[q]);
+            w[q] += vc * gn[d][q];
         }
     }
-    skew(&cross(&n_at(idx), &w))
+    skew(&cross(&cell_vector(normal, idx), &w))
 }
 
 /// The flux-form tendency of [`advective_tendency`] with the stencil values from `at`.
@@ -244,9 +241,7 @@ fn tendency_from<T: Real>(
 /// not touched). O(box): for initialisation.
 pub fn fill_projector<T: Real>(grid: &Grid<T>, normal: &[Field<T>; 3], gs: &mut SymField<T>) {
     for (c, comp) in gs.c.iter_mut().enumerate() {
-        par_interior_update(grid, &mut comp.data, |idx, _, _, _, _| {
-            projector(&[normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]])[c]
-        });
+        par_interior_update(grid, &mut comp.data, |idx, _, _, _, _| projector(&cell_vector(normal, idx))[c]);
     }
 }
 
@@ -265,11 +260,7 @@ pub fn reset_outside_band<T: Real>(
     band.matches(grid)?;
     for (c, comp) in gs.c.iter_mut().enumerate() {
         par_interior_update(grid, &mut comp.data, |idx, _, _, _, old| {
-            if band.contains(idx) {
-                old
-            } else {
-                projector(&[normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]])[c]
-            }
+            if band.contains(idx) { old } else { projector(&cell_vector(normal, idx))[c] }
         });
     }
     Ok(())
@@ -522,7 +513,7 @@ impl<T: Real> StrainTransport<T> {
             gs.set(idx, g);
         }
         for &idx in &band.halo(super::band::MAX_HALO)[nb..] {
-            gs.set(idx, &projector(&[normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]]));
+            gs.set(idx, &projector(&cell_vector(normal, idx)));
         }
         for &idx in &self.prev_cells {
             self.slot[idx] = NONE;

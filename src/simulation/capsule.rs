@@ -3,6 +3,7 @@
 //! is computed beside the state and committed only when every part of it succeeded.
 
 use super::scene::{Settings, SharedLaw};
+use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::interface::geometry::{Band as PhiBand, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
@@ -59,7 +60,7 @@ pub(crate) fn reference_integral<T: Real>(
 ) -> f64 {
     let mut s = 0.0;
     for &idx in l.band.cells() {
-        let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
+        let n = cell_vector(&l.normal, idx);
         let k = surface_kinematics(&gs.get(idx), &n);
         if k.c2 > T::zero() {
             s += (l.delta.data[idx] * q(&k) / k.c2.sqrt()).f64();

@@ -72,6 +72,7 @@ use crate::diagnostics::{
 };
 use crate::error::positive;
 use crate::fluid::{BodyForce, Coefficient, Forcing, ImplicitTerm, Materials};
+use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::membrane::Band;
 use crate::membrane::SurfaceLaw;
@@ -308,7 +309,7 @@ impl<T: Real> Simulation<T> {
                 if self.settings.tangential_gs {
                     let n = &cap.next.normal;
                     for &idx in cap.next.band.cells() {
-                        let p = projector(&[n[0].data[idx], n[1].data[idx], n[2].data[idx]]);
+                        let p = projector(&cell_vector(n, idx));
                         gs.set(idx, &project(&p, &gs.get(idx)));
                     }
                 }

@@ -2,6 +2,7 @@
 
 use super::Simulation;
 use crate::Real;
+use crate::grid::ops::cell_vector;
 use crate::grid::{Field, SymField};
 use crate::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use crate::io::vtk::VtiWriter;
@@ -38,7 +39,7 @@ impl<T: Real> Simulation<T> {
                 self.capsules.iter().find_map(|cap| {
                     let (gs, l) = (cap.gs.as_ref()?, &cap.cur);
                     l.band.contains(idx).then(|| {
-                        let n = [l.normal[0].data[idx], l.normal[1].data[idx], l.normal[2].data[idx]];
+                        let n = cell_vector(&l.normal, idx);
                         tension_invariants(law, &gs.get(idx), &n)
                     })
                 })
