@@ -22,7 +22,7 @@ use eulermembrane::membrane::{
     SurfaceLaw, advective_tendency, advective_tendency_in_frame, equibiaxial_tension, fill_projector,
     mean_curvature_at, reset_outside_band,
 };
-use eulermembrane::tensor::{Sym, projector};
+use eulermembrane::tensor::{Sym, cross, projector};
 use std::f64::consts::PI;
 
 // ---------------------------------------------------------------------------------------------
@@ -862,10 +862,7 @@ fn tangent_frame_transport_keeps_a_rotating_sphere_steady() {
     let lambda2: f64 = 1.2;
     let gs0 = stretched(&s, lambda2.sqrt());
     let w = [0.3, -0.2, 0.5];
-    let mut v = VectorField::from_fn(&g, |x| {
-        let r = [x[0] - c[0], x[1] - c[1], x[2] - c[2]];
-        [w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]]
-    });
+    let mut v = VectorField::from_fn(&g, |x| cross(&w, &[x[0] - c[0], x[1] - c[1], x[2] - c[2]]));
     v.fill_ghosts(&g);
     let mut band = Band::new(&g, 0.01).unwrap();
     band.rebuild(&g, &s.delta).unwrap();

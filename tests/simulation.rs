@@ -2,11 +2,13 @@
 //! restart, refused scenes, and small physical checks.
 
 use eulermembrane::Error;
+use eulermembrane::grid::ops::cell_vector;
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::NormalScheme;
 use eulermembrane::interface::shapes::{Circle, Sphere};
 use eulermembrane::membrane::{BendingForm, NeoHookean, Skalak};
 use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use eulermembrane::tensor::{dot, sym_mul_vec};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -407,10 +409,8 @@ fn squashed_sphere_n32(settings: Settings<f64>) -> (f64, f64, f64) {
     }
     let (gs, normal) = (sim.gs(0).unwrap().unwrap(), sim.normal(0).unwrap());
     let gn = sim.band(0).unwrap().cells().iter().fold(0.0f64, |m, &i| {
-        let [nx, ny, nz] = [0, 1, 2].map(|d| normal[d].data[i]);
-        let [xx, yy, zz, xy, yz, zx] = gs.get(i);
-        let g_n = [xx * nx + xy * ny + zx * nz, xy * nx + yy * ny + yz * nz, zx * nx + yz * ny + zz * nz];
-        m.max(g_n.iter().map(|c| c * c).sum::<f64>().sqrt())
+        let g_n = sym_mul_vec(&gs.get(i), &cell_vector(normal, i));
+        m.max(dot(&g_n, &g_n).sqrt())
     });
     (err / peak, gn, (sim.volume(0).unwrap() / v0 - 1.0).abs())
 }
