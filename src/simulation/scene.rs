@@ -88,9 +88,10 @@ pub struct Settings<T> {
     pub tangential_gs: bool,
     /// Transports `G_s` in the tangent frame ([`StrainTransport::with_tangent_frame`]): each
     /// stencil value of the advection (2.40) is turned into the cell's tangent plane, and the
-    /// stretching term leaves out that turn of the frame along the path, so that the transport
-    /// along a curved shell neither grows a normal part of `G_s` nor loses in-plane stretch.
-    /// Not in the paper. Default `false`.
+    /// stretching term leaves out that turn of the frame along the path, so that mixing
+    /// neighbours of different tangent planes adds no normal part to `G_s` (other sources of
+    /// it remain: combine with [`tangential_gs`](Self::tangential_gs), see
+    /// `docs/validation.md`). Not in the paper. Default `false`.
     ///
     /// [`StrainTransport::with_tangent_frame`]: crate::membrane::StrainTransport::with_tangent_frame
     pub tangent_frame_gs: bool,
