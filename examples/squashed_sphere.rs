@@ -10,11 +10,11 @@
 //! `|R_20(t_end)|` over its peak.
 //!
 //! `--convergence`: the grid study of Table 2 at `t = 0.1` with N = 32, 64, 128 (and 256 with
-//! `--max-n 256`; N = 128 alone takes about 20 minutes on one core): L1, L2, Linf differences
+//! `--max-n 256`; N = 128 alone takes about 8 minutes on one core): L1, L2, Linf differences
 //! (3.1) of `phi`, `v` and `p` between successive grids (the fine solution averaged onto the
 //! coarse grid), next to the paper's values, ending with `RESULT order_l1_phi=...
-//! order_l1_v=... order_l1_p=...` (the finest pair). `v` is compared on the staggered faces (a
-//! coarse face against the mean of its four fine faces); `v_cell` (`order_l1_v_cell`) compares
+//! order_l1_v=... order_l1_p=...` (the finest pair; the transport flags apply). `v` is
+//! compared on the staggered faces (a coarse face against the mean of its four fine faces); `v_cell` (`order_l1_v_cell`) compares
 //! the same velocity at cell centres, the mean of each cell's two faces, since (3.1) indexes `q`
 //! by cell (the paper does not say where it samples `v`). The paper's coarsest grid, N = 16,
 //! puts the capsule (1.6 cells in radius) within two cells of the walls, closer than the
@@ -22,10 +22,10 @@
 //!
 //! Flags: `--n N` (64), `--dt` (`0.02 (16/N)^2`), `--t-end T` (2), `--gamma G` (4), `--epsilon E`
 //! (0.01, the membrane band `delta h >= E`), `--beta B` (1, MTHINC sharpness),
-//! `--tangential-gs` (`Settings::tangential_gs`; with it `energy_err` at N = 64 is 8.7e-3,
-//! without it 1.6e-2, see `docs/validation.md`), `--tangent-frame`
-//! (`Settings::tangent_frame_gs`; 5.0e-3 at N = 64; both flags together 6.6e-3 at N = 64 and
-//! 4.8e-3 at N = 96, to `t` = 0.7), `--conserve-area`
+//! `--tangential-gs` (`Settings::tangential_gs`), `--tangent-frame` (`Settings::tangent_frame_gs`;
+//! `energy_err` at N = 64 to `t` = 0.7: 1.21e-2 with neither, 4.50e-3 and 8.73e-3 with one,
+//! 1.61e-3 with both; at N = 96 1.84e-2 with neither and 5.84e-3 with both, see
+//! `docs/validation.md`), `--conserve-area`
 //! (`Settings::conserve_reference_area`), `--strain-advection 3|5` (upwind order of the
 //! `G_s` advection, 3), `--vtk-every S` (0.25, in time units;
 //! 0 for none), `--convergence`, `--max-n N` (128), `--out DIR` (`out/squashed_sphere`).
@@ -56,13 +56,19 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse(include_str!("squashed_sphere.rs"));
     let out = args.out_dir("squashed_sphere");
     let gamma: f64 = args.get("gamma", 4.0);
+    let settings = settings(&args)?;
     if args.flag("convergence") {
-        return convergence(&args, gamma, &out);
+        return convergence(&args, gamma, settings, &out);
     }
     let n: usize = args.get("n", 64);
     let t_end: f64 = args.get("t-end", 2.0);
     let vtk_every: f64 = args.get("vtk-every", 0.25);
     let dt: f64 = args.get("dt", dt_of(n));
+    history(n, dt, t_end, gamma, settings, vtk_every, &out)
+}
+
+/// The numerical settings from the flags (also used by `--convergence`).
+fn settings(args: &Args) -> Result<Settings<f64>, Box<dyn std::error::Error>> {
     let mut settings = Settings::<f64>::default();
     settings.epsilon = args.get("epsilon", settings.epsilon);
     settings.advection.beta = args.get("beta", settings.advection.beta);
@@ -74,7 +80,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         5 => StrainAdvection::Upwind5,
         o => return Err(eulermembrane::Error::invalid("--strain-advection", o, "3 or 5").into()),
     };
-    history(n, dt, t_end, gamma, settings, vtk_every, &out)
+    Ok(settings)
 }
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.
@@ -89,12 +95,18 @@ fn build(n: usize, gamma: f64, settings: Settings<f64>) -> eulermembrane::Result
         .capsule(Sphere::new([0.5, 0.5, 0.25], RADIUS)?)
         .elasticity(NeoHookean::new(5.0)?)
         .surface_force(
-            move |x, t| {
-                if t <= T_FORCE { [0.0, 0.0, -(x[2] - 0.25).signum() * gamma] } else { [0.0; 3] }
-            },
+            move |x, t| if t <= T_FORCE { [0.0, 0.0, -sgn(x[2] - 0.25) * gamma] } else { [0.0; 3] },
         )
         .settings(settings)
         .build()
+}
+
+/// The sign function of `F_b` with `sgn(0) = 0`: the z-faces on the equator `z = 0.25` (a face
+/// plane whenever N is a multiple of 4) carry no load. `f64::signum` gives `+1` at `+0.0`, which
+/// pushed that whole layer of faces down, a net force `~ 2 pi R h gamma` (`h / R` of the load on
+/// each half) that moved the capsule towards the lower wall.
+fn sgn(s: f64) -> f64 {
+    if s.abs() < 1e-9 { 0.0 } else { s.signum() }
 }
 
 fn dt_of(n: usize) -> f64 {
@@ -143,6 +155,7 @@ fn history(
             "r42",
             "r44",
             "iters",
+            "zc",
         ],
     )?;
     let mut samples: Vec<Sample> = Vec::new();
@@ -153,8 +166,10 @@ fn history(
     let clock = Instant::now();
     for s in 0..=steps {
         let t = sim.time();
+        let mut iters = 0;
         if s > 0 {
             let report = sim.step(dt)?;
+            iters = report.flow.predictor_iterations;
             let e = budget.record(sim.energy()?)?;
             peak_elastic = peak_elastic.max(e.elastic);
             if common::progress_due(s, steps) {
@@ -194,7 +209,8 @@ fn history(
             modes[4],
             modes[5],
             modes[6],
-            0.0,
+            iters as f64,
+            centre[2],
         ])?;
         samples.push(Sample { t: t_now, modes });
         for ts in [0.25, 0.5, 1.0, 2.0] {
@@ -399,7 +415,12 @@ const PAPER: [(&str, [[f64; 3]; 4]); 3] = [
     ),
 ];
 
-fn convergence(args: &Args, gamma: f64, out: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
+fn convergence(
+    args: &Args,
+    gamma: f64,
+    settings: Settings<f64>,
+    out: &std::path::Path,
+) -> Result<(), Box<dyn std::error::Error>> {
     let max_n: usize = args.get("max-n", 128);
     let t_end: f64 = args.get("t-end", 0.1);
     let mut ns = vec![32usize];
@@ -416,7 +437,7 @@ fn convergence(args: &Args, gamma: f64, out: &std::path::Path) -> Result<(), Box
     let mut sims = Vec::new();
     for &n in &ns {
         let clock = Instant::now();
-        let mut sim = build(n, gamma, Settings::default())?;
+        let mut sim = build(n, gamma, settings)?;
         let dt = dt_of(n);
         let steps = (t_end / dt).round() as usize;
         for _ in 0..steps {

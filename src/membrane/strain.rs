@@ -51,9 +51,10 @@
 //! of projectors then has zero tendency) and, since that turn of the frame along the path,
 //! `A = [n × (v·∇)n]_×`, is also in the material rotation of the stretching term, leaves it out
 //! there: `∇v → ∇v + A` in the convention of [`stretching`] (`L → L − A`). The squashed
-//! sphere's energy error falls from 1.57e-2 to 4.96e-3 at N = 64, but only from 1.98e-2 to
-//! 1.38e-2 at N = 96; together with the projection `Settings::tangential_gs` it gives 6.56e-3
-//! and 4.85e-3 (`docs/validation.md`). Off by default.
+//! sphere's energy error falls from 2.31e-2 to 1.13e-2 at N = 32 and from 1.21e-2 to 8.73e-3
+//! at N = 64; together with the projection `Settings::tangential_gs` it gives 1.61e-3 at N = 64
+//! and 5.84e-3 at N = 96, against 1.84e-2 with the paper's transport (`docs/validation.md`).
+//! Off by default.
 //!
 //! # Where it is computed
 //!
