@@ -26,7 +26,8 @@
 //! `energy_err` at N = 64 to `t` = 0.7: 1.21e-2 with neither, 4.50e-3 and 8.73e-3 with one,
 //! 1.61e-3 with both; at N = 96 1.84e-2 with neither and 5.84e-3 with both, see
 //! `docs/validation.md`), `--conserve-area`
-//! (`Settings::conserve_reference_area`), `--strain-advection 3|5` (upwind order of the
+//! (`Settings::conserve_reference_area`), `--linear-load` (the load profile
+//! `clamp((z - 0.25) / R, -1, 1)` instead of `sgn(z - 0.25)`, a diagnostic), `--strain-advection 3|5` (upwind order of the
 //! `G_s` advection, 3), `--vtk-every S` (0.25, in time units;
 //! 0 for none), `--convergence`, `--max-n N` (128), `--out DIR` (`out/squashed_sphere`).
 //!
@@ -55,16 +56,16 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse(include_str!("squashed_sphere.rs"));
     let out = args.out_dir("squashed_sphere");
-    let gamma: f64 = args.get("gamma", 4.0);
+    let load = Load { gamma: args.get("gamma", 4.0), linear: args.flag("linear-load") };
     let settings = settings(&args)?;
     if args.flag("convergence") {
-        return convergence(&args, gamma, settings, &out);
+        return convergence(&args, load, settings, &out);
     }
     let n: usize = args.get("n", 64);
     let t_end: f64 = args.get("t-end", 2.0);
     let vtk_every: f64 = args.get("vtk-every", 0.25);
     let dt: f64 = args.get("dt", dt_of(n));
-    history(n, dt, t_end, gamma, settings, vtk_every, &out)
+    history(n, dt, t_end, load, settings, vtk_every, &out)
 }
 
 /// The numerical settings from the flags (also used by `--convergence`).
@@ -84,7 +85,7 @@ fn settings(args: &Args) -> Result<Settings<f64>, Box<dyn std::error::Error>> {
 }
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.
-fn build(n: usize, gamma: f64, settings: Settings<f64>) -> eulermembrane::Result<Simulation<f64>> {
+fn build(n: usize, load: Load, settings: Settings<f64>) -> eulermembrane::Result<Simulation<f64>> {
     if n < 8 || n % 2 != 0 {
         return Err(eulermembrane::Error::invalid("--n", n, "an even number of cells >= 8"));
     }
@@ -95,10 +96,25 @@ fn build(n: usize, gamma: f64, settings: Settings<f64>) -> eulermembrane::Result
         .capsule(Sphere::new([0.5, 0.5, 0.25], RADIUS)?)
         .elasticity(NeoHookean::new(5.0)?)
         .surface_force(
-            move |x, t| if t <= T_FORCE { [0.0, 0.0, -sgn(x[2] - 0.25) * gamma] } else { [0.0; 3] },
+            move |x, t| if t <= T_FORCE { [0.0, 0.0, -load.profile(x[2]) * load.gamma] } else { [0.0; 3] },
         )
         .settings(settings)
         .build()
+}
+
+/// The load `F_b = -delta s(z) gamma e_z` for `t <= 0.5`: the paper's `s = sgn(z - 0.25)`, or
+/// with `--linear-load` the continuous `s = clamp((z - 0.25) / R, -1, 1)`, a diagnostic without
+/// the jump of the tangential traction at the equator (`docs/validation.md`).
+#[derive(Clone, Copy)]
+struct Load {
+    gamma: f64,
+    linear: bool,
+}
+
+impl Load {
+    fn profile(&self, z: f64) -> f64 {
+        if self.linear { ((z - 0.25) / RADIUS).clamp(-1.0, 1.0) } else { sgn(z - 0.25) }
+    }
 }
 
 /// The sign function of `F_b` with `sgn(0) = 0`: the z-faces on the equator `z = 0.25` (a face
@@ -122,12 +138,12 @@ fn history(
     n: usize,
     dt: f64,
     t_end: f64,
-    gamma: f64,
+    load: Load,
     settings: Settings<f64>,
     vtk_every: f64,
     out: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let mut sim = build(n, gamma, settings)?;
+    let mut sim = build(n, load, settings)?;
     let steps = (t_end / dt).round() as usize;
     let g = sim.grid().clone();
     eprintln!("squashed_sphere: {:?} cells, dt = {dt:.3e}, {steps} steps to t = {t_end}", g.n());
@@ -417,7 +433,7 @@ const PAPER: [(&str, [[f64; 3]; 4]); 3] = [
 
 fn convergence(
     args: &Args,
-    gamma: f64,
+    load: Load,
     settings: Settings<f64>,
     out: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
@@ -437,7 +453,7 @@ fn convergence(
     let mut sims = Vec::new();
     for &n in &ns {
         let clock = Instant::now();
-        let mut sim = build(n, gamma, settings)?;
+        let mut sim = build(n, load, settings)?;
         let dt = dt_of(n);
         let steps = (t_end / dt).round() as usize;
         for _ in 0..steps {
