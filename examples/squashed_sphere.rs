@@ -14,9 +14,10 @@
 //! (3.1) of `phi`, `v` and `p` between successive grids (the fine solution averaged onto the
 //! coarse grid), next to the paper's values, ending with `RESULT order_l1_phi=...
 //! order_l1_v=... order_l1_p=...` (the finest pair; the transport flags apply). `v` is
-//! compared on the staggered faces (a coarse face against the mean of its four fine faces); `v_cell` (`order_l1_v_cell`) compares
-//! the same velocity at cell centres, the mean of each cell's two faces, since (3.1) indexes `q`
-//! by cell (the paper does not say where it samples `v`). The paper's coarsest grid, N = 16,
+//! compared on the staggered faces (a coarse face against the mean of its four fine faces);
+//! `v_cell` (`order_l1_v_cell`) compares the same velocity at cell centres, the mean of each
+//! cell's two faces, since (3.1) indexes `q` by cell (the paper does not say where it samples
+//! `v`). The paper's coarsest grid, N = 16,
 //! puts the capsule (1.6 cells in radius) within two cells of the walls, closer than the
 //! library allows.
 //!
@@ -27,9 +28,10 @@
 //! 1.61e-3 with both; at N = 96 1.84e-2 with neither and 5.84e-3 with both, see
 //! `docs/validation.md`), `--conserve-area`
 //! (`Settings::conserve_reference_area`), `--linear-load` (the load profile
-//! `clamp((z - 0.25) / R, -1, 1)` instead of `sgn(z - 0.25)`, a diagnostic), `--strain-advection 3|5` (upwind order of the
-//! `G_s` advection, 3), `--vtk-every S` (0.25, in time units;
-//! 0 for none), `--convergence`, `--max-n N` (128), `--out DIR` (`out/squashed_sphere`).
+//! `clamp((z - 0.25) / R, -1, 1)` instead of `sgn(z - 0.25)`, a diagnostic),
+//! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--vtk-every S` (0.25, in
+//! time units; 0 for none), `--convergence`, `--max-n N` (128), `--out DIR`
+//! (`out/squashed_sphere`).
 //!
 //! Run: `cargo run --release --example squashed_sphere -- --n 64`.
 
