@@ -150,9 +150,8 @@ pub fn rotation_taking<T: Real>(from: &Vec3<T>, to: &Vec3<T>) -> Option<Mat3<T>>
     let k = skew(&cross(from, to));
     let k2 = matmul(&k, &k);
     let f = T::one() / (T::one() + c);
-    Some(std::array::from_fn(|i| {
-        std::array::from_fn(|j| (if i == j { T::one() } else { T::zero() }) + k[i][j] + f * k2[i][j])
-    }))
+    let i3 = sym_to_mat(&identity::<T>());
+    Some(std::array::from_fn(|i| std::array::from_fn(|j| i3[i][j] + k[i][j] + f * k2[i][j])))
 }
 
 /// `R A R^T` for a rotation `R` and a symmetric `A`.

@@ -76,9 +76,11 @@
 use super::band::Band;
 use super::stress::stretching;
 use crate::error::positive;
-use crate::grid::ops::{cell_vector, grad_cell_vector_at, grad_v_at_cell, par_interior_update};
+use crate::grid::ops::{
+    cell_vector, grad_cell_vector_at, grad_v_at_cell, par_interior_update, velocity_at_cell,
+};
 use crate::grid::{Field, GHOST, Grid, SymField, VectorField};
-use crate::tensor::{Mat3, Sym, cross, projector, rotate, rotation_taking, skew};
+use crate::tensor::{Mat3, Sym, Vec3, cross, projector, rotate, rotation_taking, skew};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
 
@@ -179,18 +181,11 @@ fn frame_turn<T: Real>(
     normal: &[Field<T>; 3],
     idx: usize,
 ) -> Mat3<T> {
-    let st = grid.strides();
     let gn = grad_cell_vector_at(grid, normal, idx);
-    let quarter = T::lit(0.25);
-    let mut w = [T::zero(); 3];
-    for d in 0..3 {
-        let s = st[d];
-        let (a, b) = (&v_a.c[d].data, &v_b.c[d].data);
-        let vc = quarter * (a[idx] + a[idx + s] + b[idx] + b[idx + s]);
-        for q in 0..3 {
-            w[q] += vc * gn[d][q];
-        }
-    }
+    let (va, vb) = (velocity_at_cell(grid, v_a, idx), velocity_at_cell(grid, v_b, idx));
+    let half = T::lit(0.5);
+    let w: Vec3<T> =
+        std::array::from_fn(|q| (0..3).fold(T::zero(), |s, d| s + half * (va[d] + vb[d]) * gn[d][q]));
     skew(&cross(&cell_vector(normal, idx), &w))
 }
 
