@@ -29,7 +29,8 @@
 //!
 //! Flags: `--n` (32; the paper uses 64, 128 for `many`), `--dt`, `--t-end`, `--alpha LIST`,
 //! `--case`, `--cells`, `--bending-form divergence|energy` (`Settings::bending_form`, default
-//! the paper's `divergence`),
+//! the paper's `divergence`), `--tangential-gs` (`Settings::tangential_gs`), `--tangent-frame`
+//! (`Settings::tangent_frame_gs`),
 //! `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
 //! Run: `cargo run --release --example rbc_channel -- --n 32`.
@@ -63,8 +64,18 @@ struct Params {
     alpha: f64,
     radius: f64,
     wall_axis: usize,
-    /// The bending force (`--bending-form`).
+    /// The numerical options of the command line.
+    numerics: Numerics,
+}
+
+/// The numerical options a run may change (`--bending-form`, `--tangential-gs`,
+/// `--tangent-frame`): [`Settings::bending_form`], [`Settings::tangential_gs`] and
+/// [`Settings::tangent_frame_gs`]; all off (the paper's scheme) by default.
+#[derive(Clone, Copy)]
+struct Numerics {
     bend: BendingForm,
+    tangential_gs: bool,
+    tangent_frame_gs: bool,
 }
 
 const PAPER: Params = Params {
@@ -75,7 +86,7 @@ const PAPER: Params = Params {
     alpha: 40.0,
     radius: 0.17,
     wall_axis: 1,
-    bend: BendingForm::Divergence,
+    numerics: Numerics { bend: BendingForm::Divergence, tangential_gs: false, tangent_frame_gs: false },
 };
 
 fn run() -> BoxResult<()> {
@@ -85,21 +96,25 @@ fn run() -> BoxResult<()> {
     let case: String = args.get("case", "single".to_string());
     let vtk_every: f64 = args.get("vtk-every", 0.5);
     let form: String = args.get("bending-form", "divergence".to_string());
-    let bend = BendingForm::from_name(&form)?;
+    let numerics = Numerics {
+        bend: BendingForm::from_name(&form)?,
+        tangential_gs: args.flag("tangential-gs"),
+        tangent_frame_gs: args.flag("tangent-frame"),
+    };
     match case.as_str() {
         "single" => {
             let alphas: String = args.get("alpha", "2,10,40".to_string());
             let alphas: Vec<f64> = alphas.split(',').map(|a| a.trim().parse()).collect::<Result<_, _>>()?;
-            single(n, args.get("dt", 0.001), args.get("t-end", 2.0), &alphas, bend, &out)
+            single(n, args.get("dt", 0.001), args.get("t-end", 2.0), &alphas, numerics, &out)
         }
         "two1" | "two2" => {
             let z = if case == "two1" { [0.25, 0.25] } else { [0.23, 0.27] };
             let centres = vec![[0.125, 0.25, z[0]], [0.375, 0.25, z[1]]];
-            two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, bend, vtk_every, &out)
+            two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, numerics, vtk_every, &out)
         }
         "many" => {
             let cells = args.get("cells", 8);
-            many(n, args.get("dt", 0.00025), args.get("t-end", 5.0), cells, bend, vtk_every, &out)
+            many(n, args.get("dt", 0.00025), args.get("t-end", 5.0), cells, numerics, vtk_every, &out)
         }
         "replot" => replot(&args.get("files", String::new()), &out),
         other => Err(format!("--case {other}: expected single, two1, two2, many or replot").into()),
@@ -118,7 +133,12 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
     s.elasticity(Skalak::new(p.es, p.alpha)?)
         .bending(p.eb)
         .body_force([1.0, 0.0, 0.0])
-        .settings(Settings { bending_form: p.bend, ..Settings::default() })
+        .settings(Settings {
+            bending_form: p.numerics.bend,
+            tangential_gs: p.numerics.tangential_gs,
+            tangent_frame_gs: p.numerics.tangent_frame_gs,
+            ..Settings::default()
+        })
         .build()
 }
 
@@ -148,7 +168,7 @@ fn replot(files: &str, out: &Path) -> BoxResult<()> {
     Ok(())
 }
 
-fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], bend: BendingForm, out: &Path) -> BoxResult<()> {
+fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], numerics: Numerics, out: &Path) -> BoxResult<()> {
     let steps = (t_end / dt).round() as usize;
     let mut fig =
         Figure::new(format!("surface area by (3.7), N = {n} (Fig. 12)")).x_label("t").y_label("s / s0");
@@ -158,7 +178,7 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], bend: BendingForm, out:
         .equal_aspect(true);
     let mut lines = Vec::new();
     for &alpha in alphas {
-        let p = Params { alpha, bend, ..PAPER };
+        let p = Params { alpha, numerics, ..PAPER };
         let mut sim = scene(n, &p, &[[0.25; 3]])?;
         eprintln!("rbc_channel single: alpha = {alpha}, {n}^3 cells, {steps} steps of dt = {dt}");
         let g = sim.grid().clone();
@@ -275,11 +295,11 @@ fn two(
     t_end: f64,
     case: &str,
     centres: &[[f64; 3]],
-    bend: BendingForm,
+    numerics: Numerics,
     vtk_every: f64,
     out: &Path,
 ) -> BoxResult<()> {
-    let p = Params { bend, ..PAPER };
+    let p = Params { numerics, ..PAPER };
     let mut sim = scene(n, &p, centres)?;
     let steps = (t_end / dt).round() as usize;
     eprintln!("rbc_channel {case}: {n}^3 cells, {steps} steps of dt = {dt}");
@@ -380,12 +400,20 @@ fn many(
     dt: f64,
     t_end: f64,
     cells: usize,
-    bend: BendingForm,
+    numerics: Numerics,
     vtk_every: f64,
     out: &Path,
 ) -> BoxResult<()> {
-    let p =
-        Params { mu_in: 0.5, mu_out: 0.1, es: 0.1, eb: 5e-6, alpha: 10.0, radius: 0.06, wall_axis: 2, bend };
+    let p = Params {
+        mu_in: 0.5,
+        mu_out: 0.1,
+        es: 0.1,
+        eb: 5e-6,
+        alpha: 10.0,
+        radius: 0.06,
+        wall_axis: 2,
+        numerics,
+    };
     // A lattice of cells away from the walls, two per row along x, staggered.
     let per = (cells as f64).sqrt().ceil() as usize;
     let centres: Vec<[f64; 3]> = (0..cells)
