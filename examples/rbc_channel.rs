@@ -12,13 +12,19 @@
 //! alpha then stops and the next alpha runs).
 //!
 //! `--case two1` / `--case two2`: two cells at (3.8) / (3.9), `alpha = 40`, to `--t-end`
-//! (default 7.5 for these cases): x-z sections at `y = 0.25` (Fig. 16), the streamwise-averaged
-//! velocity `u(z)` on `y = 0.25` with and without cells (Fig. 17, `profile.csv`), and the
-//! parachute signature `rear_concavity` (how far the centre of each cell's trailing face lies
-//! ahead of the face at 0.6 a from the axis; positive = concave trailing face):
-//! `RESULT case=... n=... t=... rear_concavity=... volume_drift=... failed_at=... wall_s=...`
+//! (default 7.5 for these cases): x-z sections at `y = 0.25` (Fig. 16, `_sections.svg`) and
+//! x-y sections at `z = 0.25` (`_sections_xy.svg`: across the walls, where the flow varies and
+//! the parachute forms), the mean streamwise velocity `u(y)` across the channel (averaged over x
+//! and z) with and without cells (Fig. 17, `_profile.csv`), and the parachute signature in the
+//! x-y plane through each cell's centroid: `rear_concavity` (how far the centre of the trailing
+//! face lies ahead of that face at `+-0.6 a` from the axis) and `front_convexity` (the same for
+//! the leading face). The biconcave cell starts with `rear_concavity = -front_convexity > 0`; a
+//! parachute has both positive. `rear_concavity_span` is the first, measured along z instead
+//! (the flow does not vary along z):
+//! `RESULT case=... n=... t=... rear_concavity=... front_convexity=... rear_concavity_span=...
+//! volume_drift=... failed_at=... wall_s=...`
 //! (`t` the time reached; a failed step ends the run there, and the figures show the last good
-//! state). The progress lines print `rear_concavity` as the run goes.
+//! state). The progress lines print the signature as the run goes.
 //!
 //! `--case many`: `--cells` cells (8) of `a = 0.06` on a lattice, periodic x and y (walls
 //! in z), `mu = 0.5 / 0.1`, `E_s = 0.1`, `alpha = 10`, `E_b = 5e-6`, `dt = 0.00025` (Sec. 3.4.3),
@@ -38,7 +44,7 @@
 mod common;
 
 use common::{Args, BoxResult, num, result};
-use eulermembrane::diagnostics::AreaTracker;
+use eulermembrane::diagnostics::{AreaTracker, ProfileAxes, Span, streamwise_profile};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
 use eulermembrane::io::csv::{CsvWriter, read_columns, write_columns};
@@ -220,7 +226,7 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], numerics: Numerics, out
         }
         csv.finish()?;
         area_lines(&mut fig, &format!("alpha = {alpha}"), &t, &s37, &sdelta);
-        sections.segments(section_y(&g, sim.phi(0)?, 0.25), &format!("alpha = {alpha}"));
+        sections.segments(section(&g, sim.phi(0)?, 1, 0.25), &format!("alpha = {alpha}"));
         lines.push(vec![
             ("alpha", alpha.to_string()),
             ("n", n.to_string()),
@@ -239,53 +245,69 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], numerics: Numerics, out
     Ok(())
 }
 
-/// The `phi = 1/2` contour in the x-z plane through `y`.
-fn section_y(g: &Grid<f64>, phi: &Field<f64>, y: f64) -> Vec<[(f64, f64); 2]> {
+/// The `phi = 1/2` contour in the plane through `at` normal to `axis` (1: the x-z plane, 2:
+/// the x-y plane), in that plane's coordinates (x first).
+fn section(g: &Grid<f64>, phi: &Field<f64>, axis: usize, at: f64) -> Vec<[(f64, f64); 2]> {
     let [nx, ny, nz] = g.n();
     let h = g.h();
-    let j = ((y / h[1]) as usize).min(ny - 1);
-    let vals: Vec<f64> =
-        (0..nz).flat_map(|k| (0..nx).map(move |i| (i, k))).map(|(i, k)| phi.data[g.idx_u(i, j, k)]).collect();
-    contour_segments(nx, nz, 0.5 * h[0], 0.5 * h[2], h[0], h[2], &vals, 0.5)
-}
-
-/// Streamwise-averaged `u` on the plane `y = 0.25` as a function of z.
-fn profile(sim: &Simulation<f64>) -> Vec<f64> {
-    let g = sim.grid();
-    let [nx, ny, nz] = g.n();
-    let j = ny / 2;
-    let u = &sim.velocity().c[0];
-    (0..nz)
-        .map(|k| {
-            (0..nx).map(|i| 0.5 * (u.data[g.idx_u(i, j, k)] + u.data[g.idx_u(i, j - 1, k)])).sum::<f64>()
-                / nx as f64
+    let (q, nq) = if axis == 1 { (2, nz) } else { (1, ny) };
+    let layer = ((at / h[axis]) as usize).min(g.n()[axis] - 1);
+    let vals: Vec<f64> = (0..nq)
+        .flat_map(|b| (0..nx).map(move |i| (i, b)))
+        .map(|(i, b)| {
+            let mut ijk = [i, 0, 0];
+            ijk[q] = b;
+            ijk[axis] = layer;
+            phi.data[g.idx_u(ijk[0], ijk[1], ijk[2])]
         })
-        .collect()
+        .collect();
+    contour_segments(nx, nq, 0.5 * h[0], 0.5 * h[q], h[0], h[q], &vals, 0.5)
 }
 
-/// How far the centre of the trailing (upstream, low-x) face lies ahead of the face at `0.6 a`
-/// from the axis, for the cell with `phi`; the axis passes through the centroid along x.
-fn rear_concavity(g: &Grid<f64>, phi: &Field<f64>, centre: [f64; 3], a: f64) -> Option<f64> {
-    let rear = |dz: f64| -> Option<f64> {
-        let h = g.h();
-        let (nx, nz) = (g.n()[0], g.n()[2]);
-        let j = ((centre[1] / h[1]) as usize).min(g.n()[1] - 1);
-        let k = (((centre[2] + dz) / h[2]) as usize).min(nz - 1);
-        let ic = (centre[0] / h[0]) as isize;
-        // Walk upstream from the centre to the last phi >= 1/2 crossing (the trailing face).
-        let line = |i: isize| phi.data[g.idx_u(i.rem_euclid(nx as isize) as usize, j, k)];
-        let mut prev = line(ic);
-        for s in 1..(nx as isize / 2) {
-            let cur = line(ic - s);
-            if prev >= 0.5 && cur < 0.5 {
-                let x_prev = (ic - s + 1) as f64 * h[0] + 0.5 * h[0];
-                return Some(x_prev - h[0] * (prev - 0.5) / (prev - cur));
-            }
-            prev = cur;
+/// The streamwise position (x) where a line along x, through `centre` moved by `offset` along
+/// `axis`, leaves the cell `phi >= 1/2`, walking from the centre upstream (`dir = -1`, the
+/// trailing face) or downstream (`dir = 1`, the leading face); periodic in x, relative to the
+/// cell of the centre, so that positions of one cell compare.
+fn face_x(
+    g: &Grid<f64>,
+    phi: &Field<f64>,
+    centre: [f64; 3],
+    axis: usize,
+    offset: f64,
+    dir: isize,
+) -> Option<f64> {
+    let (h, n) = (g.h(), g.n());
+    let mut ijk = [0usize; 3];
+    for d in 1..3 {
+        let x = centre[d] + if d == axis { offset } else { 0.0 };
+        ijk[d] = ((x / h[d]).max(0.0) as usize).min(n[d] - 1);
+    }
+    let ic = (centre[0] / h[0]) as isize;
+    let line = |i: isize| phi.data[g.idx_u(i.rem_euclid(n[0] as isize) as usize, ijk[1], ijk[2])];
+    let mut prev = line(ic);
+    for s in 1..(n[0] as isize / 2) {
+        let cur = line(ic + dir * s);
+        if prev >= 0.5 && cur < 0.5 {
+            let steps = (s - 1) as f64 + (prev - 0.5) / (prev - cur);
+            return Some(h[0] * (ic as f64 + 0.5 + dir as f64 * steps));
         }
-        None
+        prev = cur;
+    }
+    None
+}
+
+/// The parachute signature of one cell in the plane of the flow (x) and `axis`:
+/// `[rear_concavity, front_convexity]`, how far the centre of the trailing face lies ahead of
+/// that face at `+-0.6 a` from the axis (mean of the two sides), and how far the centre of the
+/// leading face lies ahead of the leading face there. A biconcave cell at rest has
+/// `rear_concavity = -front_convexity > 0` (both faces dimpled); a parachute has both positive
+/// (concave rear, convex front).
+fn face_shape(g: &Grid<f64>, phi: &Field<f64>, centre: [f64; 3], a: f64, axis: usize) -> [f64; 2] {
+    let lead = |dir: isize| -> Option<f64> {
+        let side = |o: f64| face_x(g, phi, centre, axis, o, dir);
+        Some(side(0.0)? - 0.5 * (side(0.6 * a)? + side(-0.6 * a)?))
     };
-    Some(rear(0.0)? - rear(0.6 * a)?)
+    [lead(-1).unwrap_or(f64::NAN), lead(1).unwrap_or(f64::NAN)]
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -311,15 +333,15 @@ fn two(
     let mut max_drift = 0.0f64;
     let mut snaps: Vec<(f64, Vec<Field<f64>>)> = Vec::new();
     let mut next_snap = 0.0;
-    let concavities = |sim: &Simulation<f64>| -> Vec<f64> {
+    // The parachute signature of every cell in the wall-normal plane (where the flow varies)
+    // and in the spanwise one: [rear, front] per cell, see `face_shape`.
+    let span_axis = 3 - p.wall_axis;
+    let shapes = |sim: &Simulation<f64>, axis: usize| -> eulermembrane::Result<Vec<[f64; 2]>> {
         (0..centres.len())
-            .map(|c| {
-                let (phi, centre) =
-                    (sim.phi(c).expect("capsule exists"), sim.centroid(c).expect("capsule exists"));
-                rear_concavity(&g, phi, centre, p.radius).unwrap_or(f64::NAN)
-            })
+            .map(|c| Ok(face_shape(&g, sim.phi(c)?, sim.centroid(c)?, p.radius, axis)))
             .collect()
     };
+    let list = |v: &[[f64; 2]], which: usize| v.iter().map(|f| num(f[which])).collect::<Vec<_>>().join(",");
     let phis = |sim: &Simulation<f64>| -> eulermembrane::Result<Vec<Field<f64>>> {
         (0..centres.len()).map(|c| sim.phi(c).cloned()).collect()
     };
@@ -335,9 +357,11 @@ fn two(
                 break;
             }
             if common::progress_due(s, steps) {
-                let conc = concavities(&sim).iter().map(|c| format!("{c:.4}")).collect::<Vec<_>>().join(",");
+                let f = shapes(&sim, p.wall_axis)?;
+                let short = |w: usize| f.iter().map(|f| format!("{:.4}", f[w])).collect::<Vec<_>>().join(",");
                 let x1 = sim.centroid(0)?[0];
-                common::progress(s, steps, sim.time(), &clock, &format!("x1={x1:.3} rear_concavity={conc}"));
+                let line = format!("x1={x1:.3} rear_concavity={} front_convexity={}", short(0), short(1));
+                common::progress(s, steps, sim.time(), &clock, &line);
             }
         }
         let t = sim.time();
@@ -358,36 +382,47 @@ fn two(
     if vtk_every > 0.0 {
         pvd.write(out.join(format!("{case}.pvd")))?;
     }
-    let mut fig = Figure::new(format!("{case}: x-z sections at y = 0.25 (Fig. 16), N = {n}"))
-        .x_label("x")
-        .y_label("z")
-        .equal_aspect(true);
-    for (t, phis) in &snaps {
-        for phi in phis {
-            fig.segments(section_y(&g, phi, 0.25), &format!("t = {t:.2}"));
+    // Fig. 16: x-z sections at y = 0.25 (the paper's plane, parallel to the walls), and x-y
+    // sections at z = 0.25 (across the walls: the plane where the parachute forms).
+    for (axis, name, title) in [
+        (1, "sections", "x-z sections at y = 0.25 (Fig. 16)"),
+        (2, "sections_xy", "x-y sections at z = 0.25"),
+    ] {
+        let mut fig = Figure::new(format!("{case}: {title}, N = {n}"))
+            .x_label("x")
+            .y_label(if axis == 1 { "z" } else { "y" })
+            .equal_aspect(true);
+        for (t, phis) in &snaps {
+            for phi in phis {
+                fig.segments(section(&g, phi, axis, 0.25), &format!("t = {t:.2}"));
+            }
         }
+        fig.save(out.join(format!("{case}_{name}.svg")))?;
     }
-    fig.save(out.join(format!("{case}_sections.svg")))?;
-    // Fig. 17: with cells, and the same channel without them (Poiseuille: u = y (L - y) / (2 mu)).
-    let with = profile(&sim);
-    let z: Vec<f64> = (0..n).map(|k| (k as f64 + 0.5) * L / n as f64).collect();
-    let without = vec![0.25 * (L - 0.25) / (2.0 * p.mu_out); n];
+    // Fig. 17: the mean streamwise velocity across the channel, averaged along x and the span,
+    // with the cells and without them (Poiseuille: u = y (L - y) / (2 mu), pressure gradient 1).
+    let y: Vec<f64> = (0..=2 * n).map(|j| j as f64 * L / (2 * n) as f64).collect();
+    let with = streamwise_profile(&g, sim.velocity(), ProfileAxes::default(), &y, Span::Average)?;
+    let without: Vec<f64> = y.iter().map(|y| y * (L - y) / (2.0 * p.mu_out)).collect();
     write_columns(
         out.join(format!("{case}_profile.csv")),
-        &[("z", &z), ("u_with_cells", &with), ("u_without", &without)],
+        &[("y", &y), ("u_with_cells", &with), ("u_without", &without)],
     )?;
-    let mut pf = Figure::new(format!("streamwise-averaged u on y = 0.25, t = {:.2} (Fig. 17)", sim.time()))
-        .x_label("z")
-        .y_label("u");
-    pf.line(&z, &with, case);
-    pf.line(&z, &without, "without cells");
+    let mut pf =
+        Figure::new(format!("mean streamwise velocity across the channel, t = {:.2} (Fig. 17)", sim.time()))
+            .x_label("y")
+            .y_label("u");
+    pf.line(&y, &with, case);
+    pf.line(&y, &without, "without cells");
     pf.save(out.join(format!("{case}_profile.svg")))?;
-    let conc = concavities(&sim);
+    let (wall, span) = (shapes(&sim, p.wall_axis)?, shapes(&sim, span_axis)?);
     result(&[
         ("case", case.to_string()),
         ("n", n.to_string()),
         ("t", format!("{:.3}", sim.time())),
-        ("rear_concavity", conc.iter().map(|c| num(*c)).collect::<Vec<_>>().join(",")),
+        ("rear_concavity", list(&wall, 0)),
+        ("front_convexity", list(&wall, 1)),
+        ("rear_concavity_span", list(&span, 0)),
         ("volume_drift", num(max_drift)),
         ("failed_at", failed.map_or("none".to_string(), |t| format!("{t:.3}"))),
         ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
