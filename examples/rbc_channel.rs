@@ -39,6 +39,13 @@
 //! (`Settings::tangent_frame_gs`),
 //! `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
+//! Long runs (`two1`, `two2`): `--checkpoint-every T` writes the whole state to
+//! `CASE_checkpoint.bin` in `--out` every `T` time units (0, the default: never), and
+//! `--restart FILE` continues a run from such a file, bit for bit as if it had not stopped
+//! (`Simulation::checkpoint`, `Simulation::restore`); give the same flags as the first run. A
+//! restarted run draws its sections from `t = 0` and from the times it reaches itself, and its
+//! `.pvd` series lists only its own snapshots (the `.vti` files of the first run stay in `--out`).
+//!
 //! Run: `cargo run --release --example rbc_channel -- --n 32`.
 
 mod common;
@@ -52,7 +59,7 @@ use eulermembrane::io::plot::{Figure, LineStyle, contour_segments};
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{BendingForm, Skalak};
 use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 const L: f64 = 0.5;
@@ -116,7 +123,12 @@ fn run() -> BoxResult<()> {
         "two1" | "two2" => {
             let z = if case == "two1" { [0.25, 0.25] } else { [0.23, 0.27] };
             let centres = vec![[0.125, 0.25, z[0]], [0.375, 0.25, z[1]]];
-            two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, numerics, vtk_every, &out)
+            let run = LongRun {
+                vtk_every,
+                checkpoint_every: args.get("checkpoint-every", 0.0),
+                restart: args.opt::<String>("restart").map(PathBuf::from),
+            };
+            two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, numerics, &run, &out)
         }
         "many" => {
             let cells = args.get("cells", 8);
@@ -310,6 +322,18 @@ fn face_shape(g: &Grid<f64>, phi: &Field<f64>, centre: [f64; 3], a: f64, axis: u
     [lead(-1).unwrap_or(f64::NAN), lead(1).unwrap_or(f64::NAN)]
 }
 
+/// Output and restart options of a long run: `--vtk-every`, `--checkpoint-every`, `--restart`.
+struct LongRun {
+    vtk_every: f64,
+    checkpoint_every: f64,
+    restart: Option<PathBuf>,
+}
+
+/// The first multiple of `every` at or after `t` (0 when `every` is not positive).
+fn next_multiple(t: f64, every: f64) -> f64 {
+    if every > 0.0 { (t / every - 1e-9).ceil() * every } else { 0.0 }
+}
+
 #[allow(clippy::too_many_arguments)]
 fn two(
     n: usize,
@@ -318,7 +342,7 @@ fn two(
     case: &str,
     centres: &[[f64; 3]],
     numerics: Numerics,
-    vtk_every: f64,
+    run: &LongRun,
     out: &Path,
 ) -> BoxResult<()> {
     let p = Params { numerics, ..PAPER };
@@ -327,12 +351,25 @@ fn two(
     eprintln!("rbc_channel {case}: {n}^3 cells, {steps} steps of dt = {dt}");
     let g = sim.grid().clone();
     let v0: Vec<f64> = (0..centres.len()).map(|c| sim.volume(c)).collect::<Result<_, _>>()?;
+    let phis = |sim: &Simulation<f64>| -> eulermembrane::Result<Vec<Field<f64>>> {
+        (0..centres.len()).map(|c| sim.phi(c).cloned()).collect()
+    };
+    // The sections start from the initial shapes, also when the run continues a checkpoint.
+    let mut snaps: Vec<(f64, Vec<Field<f64>>)> = vec![(0.0, phis(&sim)?)];
+    if let Some(file) = &run.restart {
+        sim.restore(file)?;
+        eprintln!("  restarted from {} at t = {:.4}", file.display(), sim.time());
+    }
+    let first = (sim.time() / dt).round() as usize;
+    let t0 = sim.time();
+    let checkpoint = out.join(format!("{case}_checkpoint.bin"));
     let mut pvd = PvdSeries::new();
-    let mut next_vtk = 0.0;
+    let mut next_vtk = next_multiple(t0, run.vtk_every);
+    let mut next_checkpoint = t0 + run.checkpoint_every;
     let clock = Instant::now();
     let mut max_drift = 0.0f64;
-    let mut snaps: Vec<(f64, Vec<Field<f64>>)> = Vec::new();
-    let mut next_snap = 0.0;
+    let snap_every = t_end / 3.0;
+    let mut next_snap = next_multiple(t0, snap_every).max(snap_every);
     // The parachute signature of every cell in the wall-normal plane (where the flow varies)
     // and in the spanwise one: [rear, front] per cell, see `face_shape`.
     let span_axis = 3 - p.wall_axis;
@@ -342,12 +379,9 @@ fn two(
             .collect()
     };
     let list = |v: &[[f64; 2]], which: usize| v.iter().map(|f| num(f[which])).collect::<Vec<_>>().join(",");
-    let phis = |sim: &Simulation<f64>| -> eulermembrane::Result<Vec<Field<f64>>> {
-        (0..centres.len()).map(|c| sim.phi(c).cloned()).collect()
-    };
     let mut failed = None;
-    for s in 0..=steps {
-        if s > 0 {
+    for s in first..=steps {
+        if s > first {
             let t_before = sim.time();
             if let Err(e) = sim.step(dt) {
                 // Keep what the run reached: the figures below are drawn at the last good step.
@@ -361,25 +395,29 @@ fn two(
                 let short = |w: usize| f.iter().map(|f| format!("{:.4}", f[w])).collect::<Vec<_>>().join(",");
                 let x1 = sim.centroid(0)?[0];
                 let line = format!("x1={x1:.3} rear_concavity={} front_convexity={}", short(0), short(1));
-                common::progress(s, steps, sim.time(), &clock, &line);
+                common::progress_since(first, s, steps, sim.time(), &clock, &line);
+            }
+            if run.checkpoint_every > 0.0 && sim.time() >= next_checkpoint - 1e-9 {
+                sim.checkpoint(&checkpoint)?;
+                next_checkpoint += run.checkpoint_every;
             }
         }
         let t = sim.time();
         for (c, v) in v0.iter().enumerate() {
             max_drift = max_drift.max((sim.volume(c)? - v).abs() / v);
         }
-        if vtk_every > 0.0 && t >= next_vtk - 1e-9 {
+        if run.vtk_every > 0.0 && t >= next_vtk - 1e-9 {
             let name = format!("{case}_{s:06}.vti");
             sim.write_vti(out.join(&name))?;
             pvd.push(t, name);
-            next_vtk += vtk_every;
+            next_vtk += run.vtk_every;
         }
-        if t >= next_snap - 1e-9 || s == steps {
+        if (s > first || first > 0) && (t >= next_snap - 1e-9 || s == steps) {
             snaps.push((t, phis(&sim)?));
-            next_snap += t_end / 3.0;
+            next_snap += snap_every;
         }
     }
-    if vtk_every > 0.0 {
+    if run.vtk_every > 0.0 {
         pvd.write(out.join(format!("{case}.pvd")))?;
     }
     // Fig. 16: x-z sections at y = 0.25 (the paper's plane, parallel to the walls), and x-y

@@ -221,11 +221,17 @@ pub fn progress_due(s: usize, steps: usize) -> bool {
 /// Prints a progress line of a run of `steps` steps to stderr at each [`progress_due`] step:
 /// step, time, `extra`, elapsed and remaining wall time.
 pub fn progress(s: usize, steps: usize, t: f64, clock: &std::time::Instant, extra: &str) {
+    progress_since(0, s, steps, t, clock, extra);
+}
+
+/// [`progress`] for a run that started (or restarted) at step `first`, when `clock` started:
+/// the remaining time is estimated from the steps made since then.
+pub fn progress_since(first: usize, s: usize, steps: usize, t: f64, clock: &std::time::Instant, extra: &str) {
     if progress_due(s, steps) {
         let el = clock.elapsed().as_secs_f64();
         eprintln!(
             "  step {s}/{steps} t={t:.3} {extra} ({el:.0} s, ~{:.0} s left)",
-            el * (steps - s) as f64 / s as f64
+            el * (steps - s) as f64 / (s - first).max(1) as f64
         );
     }
 }
