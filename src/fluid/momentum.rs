@@ -322,7 +322,7 @@ fn variable_helmholtz<T: Real>(
     rho: &Coefficient<T>,
     inv_dt: T,
     mu: &Field<T>,
-    edge: &[Field<T>; 3],
+    edge: Option<&[Field<T>; 3]>,
     y: &mut VectorField<T>,
 ) {
     let st = grid.strides();
@@ -346,14 +346,23 @@ fn variable_helmholtz<T: Real>(
             }
             for a in axes {
                 let sa = st[a] as isize;
-                let (xa, e) = (&x.c[a].data, &edge[3 - c - a].data);
-                let (e0, ep) = (sl(e, 0), sl(e, sa));
+                let xa = &x.c[a].data;
                 let (cp, cm) = (sl(xc, sa), sl(xc, -sa));
                 let (ap, apm, a0, am) = (sl(xa, sa), sl(xa, sa - sc), sl(xa, 0), sl(xa, -sc));
-                for i in 0..nx {
-                    let hi = ep[i] * ((cp[i] - x0[i]) / h[a] + (ap[i] - apm[i]) / h[c]);
-                    let lo = e0[i] * ((x0[i] - cm[i]) / h[a] + (a0[i] - am[i]) / h[c]);
-                    out[i] += (hi - lo) / h[a];
+                let w = [x0, cp, cm, ap, apm, a0, am];
+                match edge {
+                    Some(e) => {
+                        let (e0, ep) = (sl(&e[3 - c - a].data, 0), sl(&e[3 - c - a].data, sa));
+                        shear_pass(out, w, [h[a], h[c]], |i| e0[i], |i| ep[i]);
+                    }
+                    None => {
+                        // The average of `ViscosityView::edge`, in its order.
+                        let (p, q) = (sl(m, sa), sl(m, sa - sc));
+                        let (r, t) = (sl(m, -sa), sl(m, -sa - sc));
+                        let quarter = T::lit(0.25);
+                        let e0 = |i: usize| quarter * (m0[i] + mm[i] + r[i] + t[i]);
+                        shear_pass(out, w, [h[a], h[c]], e0, |i| quarter * (p[i] + q[i] + m0[i] + mm[i]));
+                    }
                 }
             }
             let diag = |i: usize| -> T {
@@ -370,6 +379,26 @@ fn variable_helmholtz<T: Real>(
                 out[i] = diag(i) * x0[i];
             }
         });
+    }
+}
+
+/// Adds the shear term of axis `a` of [`viscous_at`] along an x-line: `w` holds the lines of
+/// `x_c` at `0, +s_a, -s_a` and of `x_a` at `+s_a, s_a - s_c, 0, -s_c`, `ha_hc` the spacings
+/// along `a` and `c`, `e0` and `ep` the edge viscosities at `0` and `+s_a`.
+#[inline(always)]
+fn shear_pass<T: Real>(
+    out: &mut [T],
+    w: [&[T]; 7],
+    ha_hc: [T; 2],
+    e0: impl Fn(usize) -> T,
+    ep: impl Fn(usize) -> T,
+) {
+    let [x0, cp, cm, ap, apm, a0, am] = w;
+    let [ha, hc] = ha_hc;
+    for i in 0..out.len() {
+        let hi = ep(i) * ((cp[i] - x0[i]) / ha + (ap[i] - apm[i]) / hc);
+        let lo = e0(i) * ((x0[i] - cm[i]) / ha + (a0[i] - am[i]) / hc);
+        out[i] += (hi - lo) / ha;
     }
 }
 
@@ -496,7 +525,7 @@ impl<'a, T: Real> Predictor<'a, T> {
             (Coefficient::Uniform(rho), Coefficient::Uniform(mu), _) => {
                 uniform_helmholtz(g, x, *rho * self.inv_dt, -T::lit(0.5) * *mu, y);
             }
-            (rho, Coefficient::Field(mu), Some(edge)) => {
+            (rho, Coefficient::Field(mu), edge) => {
                 variable_helmholtz(g, x, rho, self.inv_dt, mu, edge, y);
             }
             _ => {
@@ -615,8 +644,9 @@ mod tests {
         }
     }
 
-    /// The variable-viscosity fast path (edge viscosities given) equals the per-face stencil
-    /// to the bit, with a uniform and a variable density, on every kind of boundary.
+    /// The variable-viscosity fast path equals the per-face stencil to the bit, with the edge
+    /// viscosities given and averaged on the fly, a uniform and a variable density, on every
+    /// kind of boundary.
     #[test]
     fn variable_fast_path_matches_the_per_face_stencil_bit_for_bit() {
         for wall in [None, Some(0), Some(1), Some(2)] {
@@ -637,12 +667,13 @@ mod tests {
             let mu = Coefficient::Field(mu);
             let mut rho_field = Coefficient::Field(Field::from_cell_fn(&g, |p| 1.0 + p[0] * p[2]));
             rho_field.fill_ghosts(&g);
-            for rho in [Coefficient::Uniform(1.5), rho_field] {
+            let rhos = [Coefficient::Uniform(1.5), rho_field];
+            for (rho, given) in rhos.iter().flat_map(|r| [(r, Some(&edge)), (r, None)]) {
                 let fast = Predictor {
                     grid: &g,
                     inv_dt: 10.0,
-                    rho: &rho,
-                    mu: ViscosityView::new(&g, &mu, Some(&edge)),
+                    rho,
+                    mu: ViscosityView::new(&g, &mu, given),
                     extra: None,
                 };
                 let (mut y1, mut y2) = (VectorField::zeros(&g), VectorField::zeros(&g));
