@@ -43,8 +43,9 @@
 //! `CASE_checkpoint.bin` in `--out` every `T` time units (0, the default: never), and
 //! `--restart FILE` continues a run from such a file, bit for bit as if it had not stopped
 //! (`Simulation::checkpoint`, `Simulation::restore`); give the same flags as the first run. A
-//! restarted run draws its sections from `t = 0` and from the times it reaches itself, and its
-//! `.pvd` series lists only its own snapshots (the `.vti` files of the first run stay in `--out`).
+//! restarted run draws its sections from `t = 0` and from the times it reaches itself, its
+//! `volume_drift` covers its own steps (against the initial volumes), and its `.pvd` series lists
+//! only its own snapshots (the `.vti` files of the first run stay in `--out`).
 //!
 //! Run: `cargo run --release --example rbc_channel -- --n 32`.
 
