@@ -140,14 +140,46 @@ impl<T: Real> SpectralSolver<T> {
     /// ghosts untouched). `sigma >= 0`, `c > 0`. When `sigma = 0` and the operator is singular
     /// (all periodic, or Neumann), the mean of `b` is ignored and `x` has zero mean.
     pub fn solve(&mut self, grid: &Grid<T>, sigma: T, c: T, b: &[T], x: &mut [T]) {
-        let [nx, ny, nz] = self.n;
-        // Gather interior values, x fastest.
+        self.gather(grid, b, None);
+        let scale = self.transform(sigma, c);
+        self.scatter(grid, scale, x, None);
+    }
+
+    /// Solves two problems with the same operator at once, `b_1 -> x_1` and `b_2 -> x_2`, as
+    /// [`solve`](Self::solve) does each: the operator is real, so one complex solve of
+    /// `b_1 + i b_2` gives `x_1 + i x_2`, at the cost of one solve instead of two.
+    pub fn solve_pair(&mut self, grid: &Grid<T>, sigma: T, c: T, b: [&[T]; 2], x: [&mut [T]; 2]) {
+        self.gather(grid, b[0], Some(b[1]));
+        let scale = self.transform(sigma, c);
+        let [x1, x2] = x;
+        self.scatter(grid, scale, x1, Some(x2));
+    }
+
+    /// Gathers the interior values of `re` (and `im`) into the complex work array, x fastest.
+    fn gather(&mut self, grid: &Grid<T>, re: &[T], im: Option<&[T]>) {
+        let [nx, ny, _] = self.n;
         self.a.par_chunks_mut(nx).with_min_len(min_rows(nx)).enumerate().for_each(|(line, row)| {
             let base = grid.idx_u(0, line % ny, line / ny);
-            for (r, &bi) in row.iter_mut().zip(&b[base..base + nx]) {
-                *r = Complex::new(bi, T::zero());
+            let re = &re[base..base + nx];
+            match im {
+                Some(im) => {
+                    for ((r, &a), &b) in row.iter_mut().zip(re).zip(&im[base..base + nx]) {
+                        *r = Complex::new(a, b);
+                    }
+                }
+                None => {
+                    for (r, &a) in row.iter_mut().zip(re) {
+                        *r = Complex::new(a, T::zero());
+                    }
+                }
             }
         });
+    }
+
+    /// Applies the inverse operator to the work array (FFTs, division or tridiagonal solves,
+    /// inverse FFTs); returns the normalisation of the inverse FFTs still to apply.
+    fn transform(&mut self, sigma: T, c: T) -> T {
+        let [nx, ny, _] = self.n;
         let periodic: Vec<usize> = (0..3).filter(|&a| self.kinds[a] == AxisKind::Periodic).collect();
         for &ax in &periodic {
             self.fft_axis(ax, true);
@@ -169,21 +201,38 @@ impl<T: Real> SpectralSolver<T> {
         for &ax in &periodic {
             self.fft_axis(ax, false);
         }
-        let scale = T::one()
-            / periodic.iter().map(|&a| T::from_usize(self.n[a]).unwrap()).fold(T::one(), |p, q| p * q);
-        let a = &self.a;
-        let g = GHOST;
-        x.par_chunks_mut(grid.dims()[0]).with_min_len(min_rows(grid.dims()[0])).enumerate().for_each(
-            |(row, xs)| {
-                if let Some((j, k)) = grid.row_jk(row) {
-                    let line = &a[(j + ny * k) * nx..(j + ny * k + 1) * nx];
+        T::one() / periodic.iter().map(|&a| T::from_usize(self.n[a]).unwrap()).fold(T::one(), |p, q| p * q)
+    }
+
+    /// Scatters the real part of the work array, times `scale`, into the interior of `re`
+    /// (and the imaginary part into `im`).
+    fn scatter(&self, grid: &Grid<T>, scale: T, re: &mut [T], im: Option<&mut [T]>) {
+        let [nx, ny, _] = self.n;
+        let (a, g, dx) = (&self.a, GHOST, grid.dims()[0]);
+        let line_of =
+            |row: usize| grid.row_jk(row).map(|(j, k)| &a[(j + ny * k) * nx..(j + ny * k + 1) * nx]);
+        match im {
+            None => re.par_chunks_mut(dx).with_min_len(min_rows(dx)).enumerate().for_each(|(row, xs)| {
+                if let Some(line) = line_of(row) {
                     for (xi, r) in xs[g..g + nx].iter_mut().zip(line) {
                         *xi = r.re * scale;
                     }
                 }
-            },
-        );
-        let _ = nz;
+            }),
+            Some(im) => re
+                .par_chunks_mut(dx)
+                .zip(im.par_chunks_mut(dx))
+                .with_min_len(min_rows(dx))
+                .enumerate()
+                .for_each(|(row, (xs, ys))| {
+                    if let Some(line) = line_of(row) {
+                        for ((xi, yi), r) in xs[g..g + nx].iter_mut().zip(&mut ys[g..g + nx]).zip(line) {
+                            *xi = r.re * scale;
+                            *yi = r.im * scale;
+                        }
+                    }
+                }),
+        }
     }
 
     /// In-place FFT of `self.a` along `axis`.
