@@ -22,9 +22,12 @@
 //! parachute has both positive. `rear_concavity_span` is the first, measured along z instead
 //! (the flow does not vary along z):
 //! `RESULT case=... n=... t=... rear_concavity=... front_convexity=... rear_concavity_span=...
-//! volume_drift=... failed_at=... wall_s=...`
+//! volume_drift=... peak_gs_normal=... peak_gs_trace=... failed_at=... wall_s=...`
 //! (`t` the time reached; a failed step ends the run there, and the figures show the last good
-//! state). The progress lines print the signature as the run goes.
+//! state; `peak_gs_normal` and `peak_gs_trace` the largest `|G_s n|` and `tr G_s` over the
+//! membranes and the steps, `diagnostics::gs_tangency`: the first is 0 with `--tangential-gs`,
+//! and its growth on the rim next to the walls is what precedes the failure of the paper's
+//! transport). The progress lines print the signature and both as the run goes.
 //!
 //! `--case many`: `--cells` cells (8) of `a = 0.06` on a lattice, periodic x and y (walls
 //! in z), `mu = 0.5 / 0.1`, `E_s = 0.1`, `alpha = 10`, `E_b = 5e-6`, `dt = 0.00025` (Sec. 3.4.3),
@@ -39,7 +42,8 @@
 //! (`Settings::tangent_frame_gs`),
 //! `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
-//! Long runs (`two1`, `two2`): `--checkpoint-every T` writes the whole state to
+//! Long runs (`two1`, `two2`): `--progress-every T` prints a progress line every `T` time units
+//! (default: every twentieth of the run); `--checkpoint-every T` writes the whole state to
 //! `CASE_checkpoint.bin` in `--out` every `T` time units (0, the default: never), and
 //! `--restart FILE` continues a run from such a file, bit for bit as if it had not stopped
 //! (`Simulation::checkpoint`, `Simulation::restore`); give the same flags as the first run. A
@@ -52,7 +56,7 @@
 mod common;
 
 use common::{Args, BoxResult, num, result};
-use eulermembrane::diagnostics::{AreaTracker, ProfileAxes, Span, streamwise_profile};
+use eulermembrane::diagnostics::{AreaTracker, ProfileAxes, Span, gs_tangency, streamwise_profile};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
 use eulermembrane::io::csv::{CsvWriter, read_columns, write_columns};
@@ -127,6 +131,7 @@ fn run() -> BoxResult<()> {
             let run = LongRun {
                 vtk_every,
                 checkpoint_every: args.get("checkpoint-every", 0.0),
+                progress_every: args.get("progress-every", 0.0),
                 restart: args.opt::<String>("restart").map(PathBuf::from),
             };
             two(n, args.get("dt", 0.001), args.get("t-end", 7.5), &case, &centres, numerics, &run, &out)
@@ -323,10 +328,12 @@ fn face_shape(g: &Grid<f64>, phi: &Field<f64>, centre: [f64; 3], a: f64, axis: u
     [lead(-1).unwrap_or(f64::NAN), lead(1).unwrap_or(f64::NAN)]
 }
 
-/// Output and restart options of a long run: `--vtk-every`, `--checkpoint-every`, `--restart`.
+/// Output and restart options of a long run: `--vtk-every`, `--checkpoint-every`,
+/// `--progress-every`, `--restart`.
 struct LongRun {
     vtk_every: f64,
     checkpoint_every: f64,
+    progress_every: f64,
     restart: Option<PathBuf>,
 }
 
@@ -367,6 +374,7 @@ fn two(
     let mut pvd = PvdSeries::new();
     let mut next_vtk = next_multiple(t0, run.vtk_every);
     let mut next_checkpoint = t0 + run.checkpoint_every;
+    let mut next_progress = next_multiple(t0, run.progress_every).max(run.progress_every);
     let clock = Instant::now();
     let mut max_drift = 0.0f64;
     let snap_every = t_end / 3.0;
@@ -380,6 +388,18 @@ fn two(
             .collect()
     };
     let list = |v: &[[f64; 2]], which: usize| v.iter().map(|f| num(f[which])).collect::<Vec<_>>().join(",");
+    // How far G_s has left the tangent plane, worst cell over both cells: [max |G_s n|, max tr G_s].
+    let eps = sim.settings().epsilon;
+    let tangency = |sim: &Simulation<f64>| -> eulermembrane::Result<[f64; 2]> {
+        let mut worst = [0.0f64; 2];
+        for c in 0..centres.len() {
+            let Some(gs) = sim.gs(c)? else { continue };
+            let t = gs_tangency(&g, sim.delta(c)?, sim.normal(c)?, gs, eps)?;
+            worst = [worst[0].max(t.max_normal), worst[1].max(t.max_trace)];
+        }
+        Ok(worst)
+    };
+    let mut peak_gs = [0.0f64; 2];
     let mut failed = None;
     for s in first..=steps {
         if s > first {
@@ -391,11 +411,25 @@ fn two(
                 snaps.push((t_before, phis(&sim)?));
                 break;
             }
-            if common::progress_due(s, steps) {
+            let gs_now = tangency(&sim)?;
+            peak_gs = [peak_gs[0].max(gs_now[0]), peak_gs[1].max(gs_now[1])];
+            let due = if run.progress_every > 0.0 {
+                sim.time() >= next_progress - 1e-9 || s == steps
+            } else {
+                common::progress_due(s, steps)
+            };
+            if due {
+                next_progress += run.progress_every;
                 let f = shapes(&sim, p.wall_axis)?;
                 let short = |w: usize| f.iter().map(|f| format!("{:.4}", f[w])).collect::<Vec<_>>().join(",");
                 let x1 = sim.centroid(0)?[0];
-                let line = format!("x1={x1:.3} rear_concavity={} front_convexity={}", short(0), short(1));
+                let line = format!(
+                    "x1={x1:.3} rear_concavity={} front_convexity={} gs_normal={:.3} gs_trace={:.3}",
+                    short(0),
+                    short(1),
+                    gs_now[0],
+                    gs_now[1]
+                );
                 common::progress_since(first, s, steps, sim.time(), &clock, &line);
             }
             if run.checkpoint_every > 0.0 && sim.time() >= next_checkpoint - 1e-9 {
@@ -463,6 +497,8 @@ fn two(
         ("front_convexity", list(&wall, 1)),
         ("rear_concavity_span", list(&span, 0)),
         ("volume_drift", num(max_drift)),
+        ("peak_gs_normal", num(peak_gs[0])),
+        ("peak_gs_trace", num(peak_gs[1])),
         ("failed_at", failed.map_or("none".to_string(), |t| format!("{t:.3}"))),
         ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
     ]);

@@ -12,6 +12,7 @@
 //! | energy budget (Sec. 3.2) | `E_kin + E_el + int mu grad v : grad v dt - int v.F dt` | [`EnergyBudget`] |
 //! | membrane velocity on a mode | `c = sum delta v.m / sum delta m.m` | [`surface_velocity_projection`] |
 //! | velocity profiles (Fig. 17) | `<u>(y)` averaged over x (and z) | [`streamwise_profile`] |
+//! | normal part of `G_s` | largest and delta-weighted mean norm of `G_s n`, largest `tr G_s`, over the band | [`gs_tangency`] |
 //!
 //! Conventions shared by every function here:
 //! - fields are read at cell centres (`phi`, `delta`, normals, energy densities) or on the
@@ -41,6 +42,7 @@ pub mod mobility;
 pub mod modes;
 pub mod profile;
 mod reduce;
+pub mod tangency;
 pub mod taylor;
 pub mod volume;
 
@@ -55,6 +57,7 @@ pub use mobility::{
 };
 pub use modes::{ModeWeight, SurfaceModes, mode_amplitudes, normalized_legendre, surface_modes};
 pub use profile::{ProfileAxes, Span, streamwise_profile};
+pub use tangency::{GsTangency, gs_tangency};
 pub use taylor::{
     Ellipse, TaylorDeformation, fit_ellipse, section_axes, section_contour, taylor_deformation,
 };
