@@ -18,6 +18,9 @@
 //! Then `band_cost`: the band kernels at N = 32, 64, 128 for the same sphere (f64), against the
 //! whole-box `predictor_apply`: band work grows like N^2, box work like N^3.
 //!
+//! Last `helmholtz_channel`: the direct Helmholtz and Poisson solves in a channel (walls in y),
+//! where the tridiagonal solves along y replace one FFT.
+//!
 //! `cargo bench --bench kernels`. Times are CPU time (see `common`); throughput is cells of the
 //! whole box per CPU second.
 
@@ -29,8 +32,9 @@ use eulermembrane::Real;
 use eulermembrane::fluid::krylov::bicgstab;
 use eulermembrane::fluid::momentum::Predictor;
 use eulermembrane::fluid::projection::Projection;
+use eulermembrane::fluid::spectral::{Location, SpectralSolver};
 use eulermembrane::fluid::{Forcing, HelmholtzPrecond, KrylovParams, KrylovWorkspace, LinOp, Materials};
-use eulermembrane::grid::{Field, Grid, SymField, VectorField};
+use eulermembrane::grid::{Boundary, Field, Grid, SymField, VectorField};
 use eulermembrane::interface::geometry::{Band as PhiBand, delta_in_band};
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
 use eulermembrane::interface::{AdvectionParams, Advector, Geometry, NormalScheme};
@@ -275,9 +279,46 @@ fn band_cost(c: &mut Criterion<CpuTime>) {
     group.finish();
 }
 
+/// The direct Helmholtz solve with a wall axis (the red cells' channel: walls in y, periodic x
+/// and z), where the tridiagonal solves run along y: one component, a pair of components in one
+/// complex solve, and the pressure Poisson problem.
+fn helmholtz_channel_of<T: Real>(c: &mut Criterion<CpuTime>, ty: &str, n: usize) {
+    let wall = Boundary::Wall { velocity: [T::zero(); 3] };
+    let per = Boundary::Periodic;
+    let g = Grid::<T>::new([n; 3], [T::zero(); 3], [T::one(); 3], [[per, per], [wall, wall], [per, per]])
+        .unwrap();
+    let mut group = c.benchmark_group(format!("helmholtz_channel_{ty}_{n}cubed"));
+    configure(&mut group, g.cell_count());
+    let b1 = Field::from_cell_fn(&g, |x| (T::TAU() * x[0]).sin() * x[1] * (T::one() - x[1]) + x[2]);
+    let b2 = Field::from_cell_fn(&g, |x| (T::TAU() * x[2]).cos() * x[1]);
+    let (mut x1, mut x2) = (Field::zeros(&g), Field::zeros(&g));
+    let (sigma, c_visc) = (T::lit(1000.0), T::lit(0.025));
+    let mut vel = SpectralSolver::new(&g, Location::Velocity(0)).unwrap();
+    group.bench_function("velocity_solve", |b| {
+        b.iter(|| vel.solve(&g, sigma, c_visc, black_box(&b1.data), &mut x1.data))
+    });
+    group.bench_function("velocity_solve_pair", |b| {
+        b.iter(|| {
+            vel.solve_pair(&g, sigma, c_visc, [black_box(&b1.data), &b2.data], [&mut x1.data, &mut x2.data])
+        })
+    });
+    let mut pressure = SpectralSolver::new(&g, Location::CellNeumann).unwrap();
+    group.bench_function("pressure_solve", |b| {
+        b.iter(|| pressure.solve(&g, T::zero(), T::one(), black_box(&b1.data), &mut x1.data))
+    });
+    group.finish();
+}
+
+fn helmholtz_channel(c: &mut Criterion<CpuTime>) {
+    for n in [32, 64] {
+        helmholtz_channel_of::<f64>(c, "f64", n);
+        helmholtz_channel_of::<f32>(c, "f32", n);
+    }
+}
+
 criterion_group! {
     name = benches;
     config = common::criterion();
-    targets = kernels, band_cost
+    targets = kernels, band_cost, helmholtz_channel
 }
 criterion_main!(benches);

@@ -430,7 +430,7 @@ fn two(
                     gs_now[0],
                     gs_now[1]
                 );
-                common::progress_since(first, s, steps, sim.time(), &clock, &line);
+                common::progress_line(first, s, steps, sim.time(), &clock, &line);
             }
             if run.checkpoint_every > 0.0 && sim.time() >= next_checkpoint - 1e-9 {
                 sim.checkpoint(&checkpoint)?;

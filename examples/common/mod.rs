@@ -228,10 +228,16 @@ pub fn progress(s: usize, steps: usize, t: f64, clock: &std::time::Instant, extr
 /// the remaining time is estimated from the steps made since then.
 pub fn progress_since(first: usize, s: usize, steps: usize, t: f64, clock: &std::time::Instant, extra: &str) {
     if progress_due(s, steps) {
-        let el = clock.elapsed().as_secs_f64();
-        eprintln!(
-            "  step {s}/{steps} t={t:.3} {extra} ({el:.0} s, ~{:.0} s left)",
-            el * (steps - s) as f64 / (s - first).max(1) as f64
-        );
+        progress_line(first, s, steps, t, clock, extra);
     }
+}
+
+/// The line of [`progress_since`], printed whether or not the step is a [`progress_due`] one
+/// (for runs that choose their own progress times).
+pub fn progress_line(first: usize, s: usize, steps: usize, t: f64, clock: &std::time::Instant, extra: &str) {
+    let el = clock.elapsed().as_secs_f64();
+    eprintln!(
+        "  step {s}/{steps} t={t:.3} {extra} ({el:.0} s, ~{:.0} s left)",
+        el * (steps - s) as f64 / (s - first).max(1) as f64
+    );
 }

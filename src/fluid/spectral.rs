@@ -70,7 +70,10 @@ pub struct SpectralSolver<T: Real> {
     a: Vec<Complex<T>>,
     b: Vec<Complex<T>>,
     fft_scratch: Vec<Vec<Complex<T>>>,
+    /// Scratch of the line solves along a wall in x (empty otherwise).
     thomas_scratch: Vec<Vec<T>>,
+    /// The eliminated upper diagonal of every cell, for a wall in y or z (empty otherwise).
+    cp: Vec<T>,
     blocks: usize,
 }
 
@@ -114,19 +117,26 @@ impl<T: Real> SpectralSolver<T> {
             .map(|a| fwd[a].get_inplace_scratch_len().max(inv[a].get_inplace_scratch_len()))
             .max()
             .unwrap_or(0);
-        let nmax = n.iter().copied().max().unwrap_or(1);
+        let wall = walls.first().copied();
         Ok(SpectralSolver {
             n,
             h,
             kinds,
-            wall: walls.first().copied(),
+            wall,
             lambda,
             fwd,
             inv,
             a: vec![Complex::default(); total],
             b: vec![Complex::default(); total],
             fft_scratch: (0..blocks).map(|_| vec![Complex::default(); scratch_len]).collect(),
-            thomas_scratch: (0..blocks).map(|_| vec![T::zero(); nmax]).collect(),
+            thomas_scratch: match wall {
+                Some(0) => (0..blocks).map(|_| vec![T::zero(); n[0]]).collect(),
+                _ => Vec::new(),
+            },
+            cp: match wall {
+                Some(1 | 2) => vec![T::zero(); total],
+                _ => Vec::new(),
+            },
             blocks,
         })
     }
@@ -262,34 +272,160 @@ impl<T: Real> SpectralSolver<T> {
     /// Tridiagonal solves along the wall axis `w` for every pair of periodic wavenumbers.
     fn thomas(&mut self, w: usize, sigma: T, c: T) {
         let n = self.n;
-        let len = n[w];
-        if w != 0 {
-            to_lines(&self.a, &mut self.b, n, w);
-        } else {
-            self.b.copy_from_slice(&self.a);
+        let e = c / (self.h[w] * self.h[w]);
+        let closure = Closure { e, kind: self.kinds[w] };
+        if w == 0 {
+            // Lines along x are contiguous: one Thomas solve per line.
+            let len = n[0];
+            let per_lines = (n[1] * n[2]).div_ceil(self.blocks);
+            let lam = &self.lambda;
+            self.a
+                .par_chunks_mut(per_lines * len)
+                .zip(self.thomas_scratch.par_iter_mut())
+                .enumerate()
+                .for_each(|(blk, (chunk, cp))| {
+                    for (l, line) in chunk.chunks_mut(len).enumerate() {
+                        let gl = blk * per_lines + l;
+                        let shift = sigma + c * (lam[1][gl % n[1]] + lam[2][gl / n[1]]);
+                        solve_line(line, &mut cp[..len], shift, closure);
+                    }
+                });
+            return;
         }
-        let (o1, o2) = others(w);
-        let lines = n[0] * n[1] * n[2] / len;
-        let per_lines = lines.div_ceil(self.blocks);
-        let kind = self.kinds[w];
-        let hw2 = self.h[w] * self.h[w];
-        let lam = &self.lambda;
-        let n_o1 = n[o1];
-        self.b.par_chunks_mut(per_lines * len).zip(self.thomas_scratch.par_iter_mut()).enumerate().for_each(
-            |(blk, (chunk, cp))| {
-                for (l, line) in chunk.chunks_mut(len).enumerate() {
-                    let gl = blk * per_lines + l;
-                    let (m1, m2) = (gl % n_o1, gl / n_o1);
-                    let shift = sigma + c * (lam[o1][m1] + lam[o2][m2]);
-                    solve_line(line, &mut cp[..len], shift, c / hw2, kind);
+        // Walls in y or z: the recurrence runs across x-rows, each row of `nx` independent
+        // systems at once (no transpose, no dependency chain within a row). `cp` keeps the
+        // eliminated upper diagonal of every cell for the back substitution.
+        let nx = n[0];
+        let plane = nx * n[1];
+        let (lam, cp) = (&self.lambda, &mut self.cp);
+        if w == 1 {
+            // Each z-plane is independent: the recurrence runs over its rows j.
+            self.a
+                .par_chunks_mut(plane)
+                .zip(cp.par_chunks_mut(plane))
+                .with_min_len(min_rows(plane))
+                .enumerate()
+                .for_each(|(k, (xa, xc))| {
+                    let lo = lam[2][k];
+                    for j in 0..n[1] {
+                        let (done, rest) = xa.split_at_mut(j * nx);
+                        let (cdone, crest) = xc.split_at_mut(j * nx);
+                        let prev = (j > 0).then(|| (&done[(j - 1) * nx..], &cdone[(j - 1) * nx..]));
+                        eliminate_row(&mut rest[..nx], &mut crest[..nx], prev, j, n[1], closure, |i| {
+                            sigma + c * (lam[0][i] + lo)
+                        });
+                    }
+                    for j in (0..n[1] - 1).rev() {
+                        let (head, tail) = xa.split_at_mut((j + 1) * nx);
+                        substitute_row(&mut head[j * nx..], &tail[..nx], &xc[j * nx..(j + 1) * nx]);
+                    }
+                });
+        } else {
+            // The recurrence runs over the z-planes; the rows of a plane are independent.
+            let nz = n[2];
+            for k in 0..nz {
+                let (done, rest) = self.a.split_at_mut(k * plane);
+                let (cdone, crest) = cp.split_at_mut(k * plane);
+                let prev = (k > 0).then(|| (&done[(k - 1) * plane..], &cdone[(k - 1) * plane..]));
+                rest[..plane]
+                    .par_chunks_mut(nx)
+                    .zip(crest[..plane].par_chunks_mut(nx))
+                    .with_min_len(min_rows(nx))
+                    .enumerate()
+                    .for_each(|(j, (xr, cr))| {
+                        let lo = lam[1][j];
+                        let p = prev.map(|(x, c)| (&x[j * nx..(j + 1) * nx], &c[j * nx..(j + 1) * nx]));
+                        eliminate_row(xr, cr, p, k, nz, closure, |i| sigma + c * (lam[0][i] + lo));
+                    });
+            }
+            for k in (0..nz - 1).rev() {
+                let (head, tail) = self.a.split_at_mut((k + 1) * plane);
+                head[k * plane..]
+                    .par_chunks_mut(nx)
+                    .zip(tail[..plane].par_chunks(nx))
+                    .zip(cp[k * plane..(k + 1) * plane].par_chunks(nx))
+                    .with_min_len(min_rows(nx))
+                    .for_each(|((xr, next), cr)| substitute_row(xr, next, cr));
+            }
+        }
+    }
+}
+
+/// The tridiagonal rows along a wall axis: `-e x_{m-1} + d_m x_m - e x_{m+1} = b_m` with
+/// `e = c / h^2`, `d_m = shift + 2e` in the interior and the end rows closed as `kind` says.
+#[derive(Clone, Copy)]
+struct Closure<T> {
+    e: T,
+    kind: AxisKind,
+}
+
+impl<T: Real> Closure<T> {
+    /// The diagonal of row `m` of `len`.
+    #[inline(always)]
+    fn diag(self, shift: T, m: usize, len: usize) -> T {
+        let two = T::lit(2.0);
+        if m == 0 || m == len - 1 {
+            match self.kind {
+                AxisKind::CellNeumann => shift + self.e,
+                AxisKind::CellDirichlet => shift + T::lit(3.0) * self.e,
+                _ => shift + two * self.e,
+            }
+        } else {
+            shift + two * self.e
+        }
+    }
+
+    /// Row 0 becomes `x_0 = 0` for fixed wall faces and for the singular Neumann mode (pinning
+    /// it).
+    #[inline(always)]
+    fn pinned(self, shift: T) -> bool {
+        self.kind == AxisKind::FaceDirichlet || (self.kind == AxisKind::CellNeumann && shift <= T::zero())
+    }
+}
+
+/// Forward elimination of row `m` of `len` for a row of independent systems (`shift(i)` of
+/// system `i`): `x` holds the right-hand sides and becomes the eliminated values, `cp` the
+/// eliminated upper diagonal; `prev` is row `m - 1` after its elimination (none for `m = 0`).
+#[inline(always)]
+fn eliminate_row<T: Real>(
+    x: &mut [Complex<T>],
+    cp: &mut [T],
+    prev: Option<(&[Complex<T>], &[T])>,
+    m: usize,
+    len: usize,
+    closure: Closure<T>,
+    shift: impl Fn(usize) -> T,
+) {
+    let e = closure.e;
+    match prev {
+        None => {
+            for (i, (xi, ci)) in x.iter_mut().zip(cp.iter_mut()).enumerate() {
+                let s = shift(i);
+                if closure.pinned(s) {
+                    *xi = Complex::default();
+                    *ci = T::zero();
+                } else {
+                    let inv = T::one() / closure.diag(s, m, len);
+                    *ci = -e * inv;
+                    *xi *= inv;
                 }
-            },
-        );
-        if w != 0 {
-            from_lines(&self.b, &mut self.a, n, w);
-        } else {
-            self.a.copy_from_slice(&self.b);
+            }
         }
+        Some((xp, cpp)) => {
+            for (i, (((xi, ci), &xq), &cq)) in x.iter_mut().zip(cp.iter_mut()).zip(xp).zip(cpp).enumerate() {
+                let inv = T::one() / (closure.diag(shift(i), m, len) + e * cq);
+                *ci = -e * inv;
+                *xi = (*xi + xq * e) * inv;
+            }
+        }
+    }
+}
+
+/// Back substitution of one row: `x_m -= cp_m x_{m+1}`.
+#[inline(always)]
+fn substitute_row<T: Real>(x: &mut [Complex<T>], next: &[Complex<T>], cp: &[T]) {
+    for ((xi, &xn), &c) in x.iter_mut().zip(next).zip(cp) {
+        *xi -= xn * c;
     }
 }
 
@@ -302,29 +438,21 @@ fn others(w: usize) -> (usize, usize) {
     }
 }
 
-/// Solves `-e x_{i-1} + d_i x_i - e x_{i+1} = b_i` in place by the Thomas algorithm, with
-/// `e = c / h^2`, `d_i = shift + 2e` in the interior and the end rows closed as `kind` says.
-/// Row 0 becomes `x_0 = 0` for fixed wall faces and for the singular Neumann mode (pinning it).
-fn solve_line<T: Real>(x: &mut [Complex<T>], cp: &mut [T], shift: T, e: T, kind: AxisKind) {
+/// Solves one line of `closure` in place by the Thomas algorithm (`cp` of the line's length
+/// is scratch).
+fn solve_line<T: Real>(x: &mut [Complex<T>], cp: &mut [T], shift: T, closure: Closure<T>) {
     let n = x.len();
-    let two = T::lit(2.0);
-    let end = match kind {
-        AxisKind::CellNeumann => shift + e,
-        AxisKind::CellDirichlet => shift + T::lit(3.0) * e,
-        _ => shift + two * e,
-    };
-    let diag = |i: usize| if i == 0 || i == n - 1 { end } else { shift + two * e };
-    let pinned = kind == AxisKind::FaceDirichlet || (kind == AxisKind::CellNeumann && shift <= T::zero());
-    if pinned {
+    let e = closure.e;
+    if closure.pinned(shift) {
         x[0] = Complex::default();
         cp[0] = T::zero();
     } else {
-        let d0 = diag(0);
+        let d0 = closure.diag(shift, 0, n);
         cp[0] = -e / d0;
         x[0] /= d0;
     }
     for i in 1..n {
-        let m = diag(i) + e * cp[i - 1];
+        let m = closure.diag(shift, i, n) + e * cp[i - 1];
         cp[i] = -e / m;
         x[i] = (x[i] + x[i - 1] * e) / m;
     }
@@ -400,6 +528,12 @@ mod tests {
             let mut bc = [[Boundary::Periodic; 2]; 3];
             bc[w] = [Boundary::wall(), Boundary::wall()];
             out.push(Grid::new([6, 8, 5], [0.0; 3], [1.0, 1.5, 0.7], bc).unwrap());
+        }
+        // Large enough planes and rows that the wall sweeps split into several rayon tasks.
+        for (w, n) in [(1, [40, 24, 36]), (2, [96, 100, 6])] {
+            let mut bc = [[Boundary::Periodic; 2]; 3];
+            bc[w] = [Boundary::wall(), Boundary::wall()];
+            out.push(Grid::new(n, [0.0; 3], [1.0, 1.5, 0.7], bc).unwrap());
         }
         out
     }
