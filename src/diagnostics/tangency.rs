@@ -19,7 +19,8 @@
 
 use super::reduce::{check_field, reduce_cells};
 use crate::grid::{Field, Grid, SymField};
-use crate::tensor::{Sym, sym_mul_vec, trace};
+use crate::membrane::band::band_spacing;
+use crate::tensor::{Sym, dot, sym_mul_vec, trace};
 use crate::{Error, Real, Result};
 
 /// The normal part of `G_s` over the membrane band (see the [module docs](self)).
@@ -76,9 +77,7 @@ pub fn gs_tangency<T: Real>(
     for c in &gs.c {
         check_field(grid, "G_s", c)?;
     }
-    let n = grid.n();
-    let h = (0..3).filter(|&d| n[d] > 1).map(|d| grid.h()[d].f64()).fold(0.0, f64::max);
-    let h = if h > 0.0 { h } else { grid.h()[0].f64() };
+    let h = band_spacing(grid).f64();
     let zero = Acc {
         max_n: (f64::NEG_INFINITY, [0; 3]),
         max_tr: (f64::NEG_INFINITY, [0; 3]),
@@ -100,13 +99,13 @@ pub fn gs_tangency<T: Real>(
                 return;
             }
             let nv = [normal[0].data[idx].f64(), normal[1].data[idx].f64(), normal[2].data[idx].f64()];
-            let len = (nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2]).sqrt();
+            let len = dot(&nv, &nv).sqrt();
             if len == 0.0 {
                 return;
             }
             let g: Sym<f64> = gs.get(idx).map(|x| x.f64());
             let gn = sym_mul_vec(&g, &nv.map(|x| x / len));
-            let m = (gn[0] * gn[0] + gn[1] * gn[1] + gn[2] * gn[2]).sqrt();
+            let m = dot(&gn, &gn).sqrt();
             let tr = trace(&g);
             if !(m.is_finite() && tr.is_finite()) {
                 acc.bad.get_or_insert(("G_s", ijk));

@@ -669,10 +669,7 @@ mod tests {
     #[test]
     fn paired_preconditioner_matches_one_solve_per_component() {
         for wall in [None, Some(0), Some(1), Some(2)] {
-            let mut bc = [[Boundary::Periodic; 2]; 3];
-            if let Some(w) = wall {
-                bc[w] = [Boundary::wall(), Boundary::wall()];
-            }
+            let bc = Boundary::walls_on(wall);
             let g = Grid::<f64>::new([8, 6, 10], [0.0; 3], [1.0, 0.7, 1.2], bc).unwrap();
             let r = VectorField::from_fn(&g, |p| {
                 [(6.0 * p[1]).sin() + p[2], (4.0 * p[0]).cos() * p[2], p[0] * p[1] - p[2] * p[2]]
@@ -701,10 +698,7 @@ mod tests {
     #[test]
     fn variable_fast_path_matches_the_per_face_stencil_bit_for_bit() {
         for wall in [None, Some(0), Some(1), Some(2)] {
-            let mut bc = [[Boundary::Periodic; 2]; 3];
-            if let Some(w) = wall {
-                bc[w] = [Boundary::wall(), Boundary::wall()];
-            }
+            let bc = Boundary::walls_on(wall);
             let g = Grid::<f64>::new([6, 7, 5], [0.0; 3], [1.0, 1.3, 0.8], bc).unwrap();
             let mut x = VectorField::from_fn(&g, |p| {
                 [(3.0 * p[1]).sin() + p[2], (2.0 * p[0]).cos() * p[2], p[0] * p[1] - p[2]]

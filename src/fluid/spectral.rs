@@ -525,15 +525,11 @@ mod tests {
     fn grids() -> Vec<Grid<f64>> {
         let mut out = vec![Grid::periodic([8, 6, 4], [0.0; 3], [1.0, 2.0, 0.5]).unwrap()];
         for w in 0..3 {
-            let mut bc = [[Boundary::Periodic; 2]; 3];
-            bc[w] = [Boundary::wall(), Boundary::wall()];
-            out.push(Grid::new([6, 8, 5], [0.0; 3], [1.0, 1.5, 0.7], bc).unwrap());
+            out.push(Grid::new([6, 8, 5], [0.0; 3], [1.0, 1.5, 0.7], Boundary::walls_on(Some(w))).unwrap());
         }
         // Large enough planes and rows that the wall sweeps split into several rayon tasks.
         for (w, n) in [(1, [40, 24, 36]), (2, [96, 100, 6])] {
-            let mut bc = [[Boundary::Periodic; 2]; 3];
-            bc[w] = [Boundary::wall(), Boundary::wall()];
-            out.push(Grid::new(n, [0.0; 3], [1.0, 1.5, 0.7], bc).unwrap());
+            out.push(Grid::new(n, [0.0; 3], [1.0, 1.5, 0.7], Boundary::walls_on(Some(w))).unwrap());
         }
         out
     }

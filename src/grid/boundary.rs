@@ -21,6 +21,17 @@ impl<T: Real> Boundary<T> {
         Boundary::Wall { velocity: [T::zero(); 3] }
     }
 
+    /// The sides of a box periodic on every axis but `wall`, which gets walls at rest on both
+    /// sides (none: periodic everywhere). For the tests that run once per wall axis.
+    #[cfg(test)]
+    pub(crate) fn walls_on(wall: Option<usize>) -> [[Self; 2]; 3] {
+        let mut bc = [[Boundary::Periodic; 2]; 3];
+        if let Some(w) = wall {
+            bc[w] = [Boundary::wall(), Boundary::wall()];
+        }
+        bc
+    }
+
     /// Whether this side is periodic.
     pub fn is_periodic(&self) -> bool {
         matches!(self, Boundary::Periodic)

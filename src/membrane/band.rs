@@ -60,6 +60,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// Least number of cells between a band cell and a wall (see the [module docs](self)).
 pub const WALL_CLEARANCE: usize = 2;
 
+/// The `h` of the band criterion `delta h >= epsilon`: the largest spacing among the axes that
+/// have more than one cell (`Δx` on the paper's uniform grids; the x spacing of a one-cell box).
+pub(crate) fn band_spacing<T: Real>(grid: &Grid<T>) -> T {
+    let n = grid.n();
+    let h = (0..3).filter(|&d| n[d] > 1).map(|d| grid.h()[d]).fold(T::zero(), |a, b| a.max(b));
+    if h > T::zero() { h } else { grid.h()[0] }
+}
+
 /// Number of halo layers kept around the band (see the [module docs](self)).
 pub const MAX_HALO: usize = 4;
 
@@ -136,11 +144,9 @@ impl<T: Real> Band<T> {
             return Err(Error::invalid("grid", grid.len(), "fewer than 2^32 - 1 stored cells"));
         }
         let n = grid.n();
-        let h = (0..3).filter(|&d| n[d] > 1).map(|d| grid.h()[d]).fold(T::zero(), |a, b| a.max(b));
-        let h = if h > T::zero() { h } else { grid.h()[0] };
         Ok(Band {
             epsilon,
-            h,
+            h: band_spacing(grid),
             dims: grid.dims(),
             n,
             periodic: std::array::from_fn(|d| grid.is_periodic(d)),
@@ -503,8 +509,7 @@ mod tests {
     /// Layers against a brute-force Chebyshev distance, on periodic, wall and 2D grids.
     #[test]
     fn layers_match_brute_force_distance() {
-        let mut wall_y = [[Boundary::Periodic; 2]; 3];
-        wall_y[1] = [Boundary::wall(); 2];
+        let wall_y = Boundary::walls_on(Some(1));
         let grids = [
             Grid::<f64>::periodic([11, 9, 7], [0.0; 3], [1.0; 3]).unwrap(),
             Grid::<f64>::new([10, 14, 6], [0.0; 3], [1.0; 3], wall_y).unwrap(),
@@ -589,9 +594,7 @@ mod tests {
         assert!(matches!(e, Error::NonFinite { field: "delta", cell: [3, 4, 5] }));
         let g2 = Grid::<f64>::periodic([8, 8, 4], [0.0; 3], [1.0; 3]).unwrap();
         assert!(b.rebuild(&g2, &Field::zeros(&g2)).is_err());
-        let mut bc = [[Boundary::Periodic; 2]; 3];
-        bc[1] = [Boundary::wall(); 2];
-        let gw = Grid::<f64>::new([8, 10, 8], [0.0; 3], [1.0; 3], bc).unwrap();
+        let gw = Grid::<f64>::new([8, 10, 8], [0.0; 3], [1.0; 3], Boundary::walls_on(Some(1))).unwrap();
         let mut bw = Band::new(&gw, 0.1).unwrap();
         let mut d = Field::zeros(&gw);
         d.data[gw.idx_u(4, 5, 4)] = 100.0;
