@@ -69,6 +69,8 @@ pub struct SpectralSolver<T: Real> {
     inv: [Arc<dyn Fft<T>>; 3],
     a: Vec<Complex<T>>,
     b: Vec<Complex<T>>,
+    /// The second work array of the blended solves (empty until the first one).
+    a2: Vec<Complex<T>>,
     fft_scratch: Vec<Vec<Complex<T>>>,
     /// Scratch of the line solves along a wall in x (empty otherwise).
     thomas_scratch: Vec<Vec<T>>,
@@ -128,6 +130,7 @@ impl<T: Real> SpectralSolver<T> {
             inv,
             a: vec![Complex::default(); total],
             b: vec![Complex::default(); total],
+            a2: Vec::new(),
             fft_scratch: (0..blocks).map(|_| vec![Complex::default(); scratch_len]).collect(),
             thomas_scratch: match wall {
                 Some(0) => (0..blocks).map(|_| vec![T::zero(); n[0]]).collect(),
@@ -189,11 +192,25 @@ impl<T: Real> SpectralSolver<T> {
     /// Applies the inverse operator to the work array (FFTs, division or tridiagonal solves,
     /// inverse FFTs); returns the normalisation of the inverse FFTs still to apply.
     fn transform(&mut self, sigma: T, c: T) -> T {
-        let [nx, ny, _] = self.n;
+        self.ffts(true);
+        self.invert_modes(sigma, c);
+        self.ffts(false)
+    }
+
+    /// FFTs of the work array along every periodic axis (forward or inverse); returns the
+    /// normalisation of the inverse FFTs.
+    fn ffts(&mut self, forward: bool) -> T {
         let periodic: Vec<usize> = (0..3).filter(|&a| self.kinds[a] == AxisKind::Periodic).collect();
         for &ax in &periodic {
-            self.fft_axis(ax, true);
+            self.fft_axis(ax, forward);
         }
+        T::one() / periodic.iter().map(|&a| T::from_usize(self.n[a]).unwrap()).fold(T::one(), |p, q| p * q)
+    }
+
+    /// Inverts the operator on the transformed work array: a division per mode, or the
+    /// tridiagonal solves along the wall axis.
+    fn invert_modes(&mut self, sigma: T, c: T) {
+        let [nx, ny, _] = self.n;
         match self.wall {
             Some(w) => self.thomas(w, sigma, c),
             None => {
@@ -208,10 +225,88 @@ impl<T: Real> SpectralSolver<T> {
                 });
             }
         }
-        for &ax in &periodic {
-            self.fft_axis(ax, false);
+    }
+
+    /// Transforms the gathered right-hand side forward once and inverts it with two
+    /// coefficients: `c[0]` into the work array `a`, `c[1]` into `a2` (allocated on first use).
+    fn invert_two(&mut self, sigma: T, c: [T; 2]) {
+        self.ffts(true);
+        if self.a2.len() != self.a.len() {
+            self.a2 = vec![Complex::default(); self.a.len()];
         }
-        T::one() / periodic.iter().map(|&a| T::from_usize(self.n[a]).unwrap()).fold(T::one(), |p, q| p * q)
+        self.a2.par_iter_mut().zip(self.a.par_iter()).for_each(|(d, s)| *d = *s);
+        self.invert_modes(sigma, c[0]);
+        std::mem::swap(&mut self.a, &mut self.a2);
+        self.invert_modes(sigma, c[1]);
+        std::mem::swap(&mut self.a, &mut self.a2);
+    }
+
+    /// A blend of two solves, `x = w x_0 + (1 - w) x_1` with `x_m` the solution of
+    /// `(sigma - c_m sum_d L_d) x_m = b` (as [`solve`](Self::solve)) and `w` a weight per
+    /// unknown (storage of `grid`, values in `[0, 1]`). One forward transform serves both
+    /// coefficients, and both solutions come back in one complex inverse transform
+    /// (`x_0 + i x_1`, the operators being real): the cost of one solve plus a second
+    /// division or tridiagonal sweep. The preconditioner of a two-viscosity predictor
+    /// ([`crate::fluid::momentum::HelmholtzPrecond`]).
+    pub fn solve_blended(&mut self, grid: &Grid<T>, sigma: T, c: [T; 2], w: &[T], b: &[T], x: &mut [T]) {
+        self.gather(grid, b, None);
+        self.invert_two(sigma, c);
+        self.a
+            .par_iter_mut()
+            .zip(self.a2.par_iter())
+            .for_each(|(a, a2)| *a = Complex::new(a.re - a2.im, a.im + a2.re));
+        let scale = self.ffts(false);
+        let [nx, ny, _] = self.n;
+        let (a, g, dx) = (&self.a, GHOST, grid.dims()[0]);
+        x.par_chunks_mut(dx).zip(w.par_chunks(dx)).with_min_len(min_rows(dx)).enumerate().for_each(
+            |(row, (xs, ws))| {
+                if let Some((j, k)) = grid.row_jk(row) {
+                    let line = &a[(j + ny * k) * nx..(j + ny * k + 1) * nx];
+                    for ((xi, &wi), r) in xs[g..g + nx].iter_mut().zip(&ws[g..g + nx]).zip(line) {
+                        *xi = scale * (wi * r.re + (T::one() - wi) * r.im);
+                    }
+                }
+            },
+        );
+    }
+
+    /// [`solve_blended`](Self::solve_blended) for two right-hand sides with the same
+    /// operators and their own weights, packed as in [`solve_pair`](Self::solve_pair): one
+    /// forward and two inverse transforms for the four solutions.
+    pub fn solve_pair_blended(
+        &mut self,
+        grid: &Grid<T>,
+        sigma: T,
+        c: [T; 2],
+        w: [&[T]; 2],
+        b: [&[T]; 2],
+        x: [&mut [T]; 2],
+    ) {
+        self.gather(grid, b[0], Some(b[1]));
+        self.invert_two(sigma, c);
+        let scale = self.ffts(false);
+        std::mem::swap(&mut self.a, &mut self.a2);
+        self.ffts(false);
+        std::mem::swap(&mut self.a, &mut self.a2);
+        let [nx, ny, _] = self.n;
+        let (a, a2, g, dx) = (&self.a, &self.a2, GHOST, grid.dims()[0]);
+        let [x1, x2] = x;
+        x1.par_chunks_mut(dx)
+            .zip(x2.par_chunks_mut(dx))
+            .zip(w[0].par_chunks(dx).zip(w[1].par_chunks(dx)))
+            .with_min_len(min_rows(dx))
+            .enumerate()
+            .for_each(|(row, ((xs, ys), (w1, w2)))| {
+                if let Some((j, k)) = grid.row_jk(row) {
+                    let range = (j + ny * k) * nx..(j + ny * k + 1) * nx;
+                    let (hi, lo) = (&a[range.clone()], &a2[range]);
+                    for i in 0..nx {
+                        let (u, v) = (w1[g + i], w2[g + i]);
+                        xs[g + i] = scale * (u * hi[i].re + (T::one() - u) * lo[i].re);
+                        ys[g + i] = scale * (v * hi[i].im + (T::one() - v) * lo[i].im);
+                    }
+                }
+            });
     }
 
     /// Scatters the real part of the work array, times `scale`, into the interior of `re`
@@ -599,6 +694,41 @@ mod tests {
                 for (i, j, k) in g.cells() {
                     let id = g.idx_u(i, j, k);
                     assert!((y.data[id] - v.c[d].data[id]).abs() < 1e-11, "d={d} {:?}", (i, j, k));
+                }
+            }
+        }
+    }
+
+    /// The blended solves equal the blend of two separate solves, single and paired, with and
+    /// without walls (velocity closures, where the pairs occur).
+    #[test]
+    fn blended_solves_are_blends_of_two_solves() {
+        let (sigma, c) = (3.0, [0.9, 0.2]);
+        for g in grids() {
+            let len = g.dims().iter().product::<usize>();
+            let field = |seed: usize| (0..len).map(|i| pseudo_random(i + seed)).collect::<Vec<f64>>();
+            let w = field(11).iter().map(|x| x.abs()).collect::<Vec<_>>();
+            let w2 = field(29).iter().map(|x| x.abs()).collect::<Vec<_>>();
+            let (b1, b2) = (field(3), field(17));
+            for d in 0..3 {
+                let mut solver = SpectralSolver::new(&g, Location::Velocity(d)).unwrap();
+                let separate = |solver: &mut SpectralSolver<f64>, b: &[f64], w: &[f64]| {
+                    let (mut hi, mut lo) = (vec![0.0; len], vec![0.0; len]);
+                    solver.solve(&g, sigma, c[0], b, &mut hi);
+                    solver.solve(&g, sigma, c[1], b, &mut lo);
+                    (0..len).map(|i| w[i] * hi[i] + (1.0 - w[i]) * lo[i]).collect::<Vec<_>>()
+                };
+                let (e1, e2) = (separate(&mut solver, &b1, &w), separate(&mut solver, &b2, &w2));
+                let mut x1 = vec![0.0; len];
+                solver.solve_blended(&g, sigma, c, &w, &b1, &mut x1);
+                let (mut y1, mut y2) = (vec![0.0; len], vec![0.0; len]);
+                solver.solve_pair_blended(&g, sigma, c, [&w, &w2], [&b1, &b2], [&mut y1, &mut y2]);
+                for (i, j, k) in g.cells() {
+                    let id = g.idx_u(i, j, k);
+                    let scale = 1.0 + e1[id].abs();
+                    assert!((x1[id] - e1[id]).abs() < 1e-13 * scale, "d={d} {:?}", (i, j, k));
+                    assert!((y1[id] - e1[id]).abs() < 1e-13 * scale, "d={d} {:?}", (i, j, k));
+                    assert!((y2[id] - e2[id]).abs() < 1e-13 * (1.0 + e2[id].abs()), "d={d} {:?}", (i, j, k));
                 }
             }
         }
