@@ -617,7 +617,8 @@ impl<T: Real> HelmholtzPrecond<T> {
     /// filled); `sigma = rho_ref / dt`. See the type's docs.
     pub fn set_two(&mut self, sigma: T, mu_lo: T, mu_hi: T, mu: &Field<T>) {
         let (g, half) = (&self.grid, T::lit(0.5));
-        let (_, w) = self.two.get_or_insert_with(|| (T::zero(), VectorField::zeros(g)));
+        let (c_lo, w) = self.two.get_or_insert_with(|| (T::zero(), VectorField::zeros(g)));
+        *c_lo = half * mu_lo;
         let span = T::one() / (mu_hi - mu_lo);
         for (c, wc) in w.c.iter_mut().enumerate() {
             let st = g.strides()[c];
@@ -625,9 +626,6 @@ impl<T: Real> HelmholtzPrecond<T> {
                 let m = half * (mu.data[idx] + mu.data[idx - st]);
                 ((m - mu_lo) * span).max(T::zero()).min(T::one())
             });
-        }
-        if let Some(two) = self.two.as_mut() {
-            two.0 = half * mu_lo;
         }
         self.sigma = sigma;
         self.c = half * mu_hi;

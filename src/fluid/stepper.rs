@@ -431,10 +431,9 @@ impl<T: Real> FlowStepper<T> {
         // 4. Solve the predictor from v^n.
         ws.vstar.copy_from(&self.v);
         // Extremes of the materials: the preconditioner's reference values and the viscous number.
-        let (rho_lo, mu_hi) = (rho.range(g).0, self.materials.mu.range(g).1);
+        let (rho_lo, (mu_lo, mu_hi)) = (rho.range(g).0, self.materials.mu.range(g));
         let (iters, resid) = match self.config.predictor {
             PredictorSolver::Krylov(params) => {
-                let mu_lo = self.materials.mu.range(g).0;
                 match &self.materials.mu {
                     // Two viscosities far apart: blend two inverses (HelmholtzPrecond::set_two).
                     Coefficient::Field(f)
