@@ -129,6 +129,7 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
     rhat.assign(r);
     p.assign(r);
     let mut rho = rhat.dot(grid, r);
+    // Each vector update below is one fused pass that also takes the sums needed next.
     for it in 1..=params.max_iterations {
         pc.apply(p, phat);
         op.apply(phat, v);
@@ -137,37 +138,41 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
             return Err(no_convergence("BiCGStab (breakdown)", it, res.f64(), params.tolerance));
         }
         let alpha = rho / rv;
-        s.assign(r);
-        s.axpby(grid, -alpha, v, T::one());
-        let snorm = s.norm(grid) / bnorm;
+        // s = r - alpha v, and |s|^2
+        let [ss, _] = s.update_reduce(grid, [r, v], |_, [r, v]| {
+            let s = -alpha * v + r;
+            (s, [s * s, T::zero()])
+        });
+        let snorm = ss.sqrt() / bnorm;
         if snorm <= tol {
             x.axpby(grid, alpha, phat, T::one());
             return Ok(KrylovInfo { iterations: it, residual: snorm.f64() });
         }
         pc.apply(s, shat);
         op.apply(shat, t);
-        let tt = t.dot(grid, t);
-        let omega = if tt > T::zero() { t.dot(grid, s) / tt } else { T::zero() };
-        x.axpby(grid, alpha, phat, T::one());
-        x.axpby(grid, omega, shat, T::one());
-        r.assign(s);
-        r.axpby(grid, -omega, t, T::one());
-        res = r.norm(grid) / bnorm;
+        let [tt, ts] = t.reduce(grid, [s], |t, [s]| [t * t, t * s]);
+        let omega = if tt > T::zero() { ts / tt } else { T::zero() };
+        // x += alpha phat + omega shat
+        x.update(grid, [phat, shat], |x, [ph, sh]| omega * sh + (alpha * ph + x));
+        // r = s - omega t, |r|^2 and rhat . r
+        let [rr, rho_new] = r.update_reduce(grid, [s, t, rhat], |_, [s, t, rh]| {
+            let r = -omega * t + s;
+            (r, [r * r, rh * r])
+        });
+        res = rr.sqrt() / bnorm;
         if !res.is_finite() {
             return Err(no_convergence("BiCGStab", it, res.f64(), params.tolerance));
         }
         if res <= tol {
             return Ok(KrylovInfo { iterations: it, residual: res.f64() });
         }
-        let rho_new = rhat.dot(grid, r);
         if omega == T::zero() || rho == T::zero() {
             return Err(no_convergence("BiCGStab (breakdown)", it, res.f64(), params.tolerance));
         }
         let beta = (rho_new / rho) * (alpha / omega);
         rho = rho_new;
         // p = r + beta (p - omega v)
-        p.axpby(grid, -omega * beta, v, beta);
-        p.axpby(grid, T::one(), r, T::one());
+        p.update(grid, [v, r], |p, [v, r]| r + (-omega * beta * v + beta * p));
     }
     Err(no_convergence("BiCGStab", params.max_iterations, res.f64(), params.tolerance))
 }
@@ -203,8 +208,11 @@ pub fn pcg<T: Real, V: InteriorVector<T>>(
         }
         let alpha = rz / pap;
         x.axpby(grid, alpha, p, T::one());
-        r.axpby(grid, -alpha, ap, T::one());
-        res = r.norm(grid) / bnorm;
+        let [rr, _] = r.update_reduce(grid, [ap], |r, [ap]| {
+            let r = -alpha * ap + r;
+            (r, [r * r, T::zero()])
+        });
+        res = rr.sqrt() / bnorm;
         if res <= tol {
             return Ok(KrylovInfo { iterations: it, residual: res.f64() });
         }
