@@ -85,21 +85,16 @@ fn settings(args: &Args) -> Result<Settings<f64>, Box<dyn std::error::Error>> {
     let mut settings = Settings::<f64>::default();
     settings.epsilon = args.get("epsilon", settings.epsilon);
     settings.advection.beta = args.get("beta", settings.advection.beta);
-    (settings.tangential_gs, settings.tangent_frame_gs) =
-        match args.get("gs-transport", String::from("tangential")).as_str() {
-            "tangential" => (true, false),
-            "paper" => (false, false),
-            "both" => (true, true),
-            "frame" => (false, true),
-            o => {
-                return Err(eulermembrane::Error::invalid(
-                    "--gs-transport",
-                    o,
-                    "tangential, paper, frame or both",
-                )
-                .into());
-            }
-        };
+    let name = args.get("gs-transport", GS_TRANSPORTS[0].0.to_string());
+    let Some(&(_, tangential, frame)) = GS_TRANSPORTS.iter().find(|t| t.0 == name) else {
+        return Err(eulermembrane::Error::invalid(
+            "--gs-transport",
+            name,
+            "tangential, paper, frame or both",
+        )
+        .into());
+    };
+    (settings.tangential_gs, settings.tangent_frame_gs) = (tangential, frame);
     settings.conserve_reference_area = args.flag("conserve-area");
     settings.strain_advection = match args.get("strain-advection", 3u32) {
         3 => StrainAdvection::Upwind3,
@@ -109,14 +104,16 @@ fn settings(args: &Args) -> Result<Settings<f64>, Box<dyn std::error::Error>> {
     Ok(settings)
 }
 
-/// The `--gs-transport` value that gives `settings`, for the RESULT lines.
+/// The values of `--gs-transport` with the `Settings::tangential_gs` and
+/// `Settings::tangent_frame_gs` each turns on; the first is the example's default.
+const GS_TRANSPORTS: [(&str, bool, bool); 4] =
+    [("tangential", true, false), ("paper", false, false), ("frame", false, true), ("both", true, true)];
+
+/// The `--gs-transport` value that gives `settings`, for the RESULT lines (the table holds all
+/// four pairs of the two switches).
 fn transport_name(settings: &Settings<f64>) -> &'static str {
-    match (settings.tangential_gs, settings.tangent_frame_gs) {
-        (true, true) => "both",
-        (false, false) => "paper",
-        (true, false) => "tangential",
-        (false, true) => "frame",
-    }
+    let key = (settings.tangential_gs, settings.tangent_frame_gs);
+    GS_TRANSPORTS.iter().find(|t| (t.1, t.2) == key).map_or("paper", |t| t.0)
 }
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.
