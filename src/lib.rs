@@ -47,6 +47,8 @@ pub mod membrane;
 pub mod real;
 pub mod simulation;
 pub mod tensor;
+#[cfg(feature = "testing")]
+pub mod testing;
 
 pub use error::{Error, Result};
 pub use real::Real;
