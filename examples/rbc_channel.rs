@@ -25,7 +25,7 @@
 //! volume_drift=... peak_gs_normal=... peak_gs_trace=... failed_at=... wall_s=...`
 //! (`t` the time reached; a failed step ends the run there, and the figures show the last good
 //! state; `peak_gs_normal` and `peak_gs_trace` the largest `|G_s n|` and `tr G_s` over the
-//! membranes and the steps, `diagnostics::gs_tangency`: the first is 0 with `--tangential-gs`,
+//! membranes and the steps, `diagnostics::gs_tangency`: the first is 0 with `--gs-transport tangential`,
 //! and its growth on the rim next to the walls is what precedes the failure of the paper's
 //! transport). The progress lines print the signature and both as the run goes.
 //!
@@ -38,8 +38,8 @@
 //!
 //! Flags: `--n` (32; the paper uses 64, 128 for `many`), `--dt`, `--t-end`, `--alpha LIST`,
 //! `--case`, `--cells`, `--bending-form divergence|energy` (`Settings::bending_form`, default
-//! the paper's `divergence`), `--tangential-gs` (`Settings::tangential_gs`), `--tangent-frame`
-//! (`Settings::tangent_frame_gs`),
+//! the paper's `divergence`), `--gs-transport paper|tangential|frame|both`
+//! (`Settings::gs_transport`, default `paper`),
 //! `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
 //! Long runs (`two1`, `two2`): `--progress-every T` prints a progress line every `T` time units
@@ -63,7 +63,7 @@ use eulermembrane::io::csv::{CsvWriter, read_columns, write_columns};
 use eulermembrane::io::plot::{Figure, LineStyle, contour_segments};
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{BendingForm, Skalak};
-use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{GsTransport, Phase, Scene, Settings, Simulation};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -86,14 +86,12 @@ struct Params {
     numerics: Numerics,
 }
 
-/// The numerical options a run may change (`--bending-form`, `--tangential-gs`,
-/// `--tangent-frame`): [`Settings::bending_form`], [`Settings::tangential_gs`] and
-/// [`Settings::tangent_frame_gs`]; all off (the paper's scheme) by default.
+/// The numerical options a run may change (`--bending-form`, `--gs-transport`):
+/// [`Settings::bending_form`] and [`Settings::gs_transport`]; the paper's scheme by default.
 #[derive(Clone, Copy)]
 struct Numerics {
     bend: BendingForm,
-    tangential_gs: bool,
-    tangent_frame_gs: bool,
+    gs_transport: GsTransport,
 }
 
 const PAPER: Params = Params {
@@ -104,7 +102,7 @@ const PAPER: Params = Params {
     alpha: 40.0,
     radius: 0.17,
     wall_axis: 1,
-    numerics: Numerics { bend: BendingForm::Divergence, tangential_gs: false, tangent_frame_gs: false },
+    numerics: Numerics { bend: BendingForm::Divergence, gs_transport: GsTransport::Paper },
 };
 
 fn run() -> BoxResult<()> {
@@ -116,8 +114,7 @@ fn run() -> BoxResult<()> {
     let form: String = args.get("bending-form", "divergence".to_string());
     let numerics = Numerics {
         bend: BendingForm::from_name(&form)?,
-        tangential_gs: args.flag("tangential-gs"),
-        tangent_frame_gs: args.flag("tangent-frame"),
+        gs_transport: GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?,
     };
     match case.as_str() {
         "single" => {
@@ -154,13 +151,13 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
     for &c in centres {
         s = s.capsule(Biconcave::new(c, p.radius)?);
     }
-    s.elasticity(Skalak::new(p.es, p.alpha)?)
+    // The body force first: the forces are summed in the order the effects are added.
+    s.body_force([1.0, 0.0, 0.0])
+        .elasticity(Skalak::new(p.es, p.alpha)?)
         .bending(p.eb)
-        .body_force([1.0, 0.0, 0.0])
         .settings(Settings {
             bending_form: p.numerics.bend,
-            tangential_gs: p.numerics.tangential_gs,
-            tangent_frame_gs: p.numerics.tangent_frame_gs,
+            gs_transport: p.numerics.gs_transport,
             ..Settings::default()
         })
         .build()

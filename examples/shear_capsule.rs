@@ -16,8 +16,8 @@
 //! cells), `--dt` (half the paper's `0.001 (128/N)^2`, and within the bending rule with
 //! `--bending`; see `common::shear`), `--t-end` (6), `--bending` (`E_b'`, 0 for none),
 //! `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
-//! `--sweep`, `--tangential-gs`, `--tangent-frame` (`Settings::tangent_frame_gs`),
-//! `--conserve-area` (`Settings::conserve_reference_area`),
+//! `--sweep`, `--gs-transport paper|tangential|frame|both` (`Settings::gs_transport`, default
+//! `paper`), `--conserve-area` (`Settings::reference_area`),
 //! `--bending-form divergence|energy` (`Settings::bending_form`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
@@ -31,7 +31,7 @@ use common::{Args, BoxResult, num, read_points, reference_dir, result};
 use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::io::plot::{Figure, LineStyle};
 use eulermembrane::membrane::BendingForm;
-use eulermembrane::simulation::Settings;
+use eulermembrane::simulation::{GsTransport, ReferenceArea, Settings};
 use std::path::Path;
 
 const SWEEP: [f64; 5] = [0.0125, 0.025, 0.05, 0.1, 0.2];
@@ -103,22 +103,21 @@ fn run() -> BoxResult<()> {
 
 /// Runs one case in the precision the flags ask for.
 fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
-    fn settings<T: eulermembrane::Real>(args: &Args, bending_form: BendingForm) -> Settings<T> {
-        let (tangential_gs, tangent_frame_gs, conserve_reference_area) =
-            (args.flag("tangential-gs"), args.flag("tangent-frame"), args.flag("conserve-area"));
-        Settings {
-            tangential_gs,
-            tangent_frame_gs,
-            conserve_reference_area,
-            bending_form,
-            ..Settings::default()
-        }
+    fn settings<T: eulermembrane::Real>(
+        args: &Args,
+        bending_form: BendingForm,
+        gs_transport: GsTransport,
+    ) -> Settings<T> {
+        let reference_area =
+            if args.flag("conserve-area") { ReferenceArea::Conserved } else { ReferenceArea::Transported };
+        Settings { gs_transport, reference_area, bending_form, ..Settings::default() }
     }
     let form = BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
+    let transport = GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?;
     if args.flag("f32") {
-        shear::run::<f32>(case, settings(args, form), 0.05, vtk, false)
+        shear::run::<f32>(case, settings(args, form, transport), 0.05, vtk, false)
     } else {
-        shear::run::<f64>(case, settings(args, form), 0.05, vtk, false)
+        shear::run::<f64>(case, settings(args, form, transport), 0.05, vtk, false)
     }
 }
 

@@ -20,7 +20,7 @@ use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::io::plot::{Figure, Scale};
 use eulermembrane::io::vtk::VtiWriter;
-use eulermembrane::membrane::{self, Bending, NeoHookean, Skalak};
+use eulermembrane::membrane::{self, BendingStress, NeoHookean, Skalak};
 use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
 use eulermembrane::{Error, Result};
 use proptest::prelude::*;
@@ -166,8 +166,8 @@ proptest! {
         prop_assert_eq!(param_name(&refused("Skalak::new", || Skalak::new(bad, 1.0))), "es");
         prop_assert!(Skalak::new(good, 0.0).is_ok());
         let g = small();
-        prop_assert_eq!(param_name(&refused("Bending::new", || Bending::new(&g, bad))), "eb");
-        prop_assert!(Bending::new(&g, good).is_ok());
+        prop_assert_eq!(param_name(&refused("BendingStress::new", || BendingStress::new(&g, bad))), "eb");
+        prop_assert!(BendingStress::new(&g, good).is_ok());
         refused("AreaTracker::new", || AreaTracker::new(bad));
         prop_assert!(AreaTracker::new(good).is_ok());
         // Material fields: a non-positive value, or a field of another grid.

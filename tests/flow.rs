@@ -71,12 +71,19 @@ struct Gravity {
 }
 
 impl Forcing<f64> for Gravity {
-    fn add(&self, grid: &Grid<f64>, _: f64, _: &VectorField<f64>, out: &mut VectorField<f64>) {
+    fn add(
+        &self,
+        grid: &Grid<f64>,
+        _: f64,
+        _: &VectorField<f64>,
+        out: &mut VectorField<f64>,
+    ) -> eulermembrane::Result<()> {
         let sy = grid.strides()[1];
         let rho = &self.rho.data;
         par_interior_update(grid, &mut out.c[1].data, |idx, _, j, _, f| {
             if j == 0 { f } else { f - self.g * 0.5 * (rho[idx] + rho[idx - sy]) }
         });
+        Ok(())
     }
 }
 

@@ -18,9 +18,9 @@ use eulermembrane::fluid::{
 };
 use eulermembrane::grid::{Field, Grid, SymField, VectorField};
 use eulermembrane::membrane::{
-    Band, Bending, BendingForm, InPlaneElasticity, NeoHookean, Skalak, StrainAdvection, StrainTransport,
-    SurfaceLaw, advective_tendency, advective_tendency_in_frame, equibiaxial_tension, fill_projector,
-    mean_curvature_at, reset_outside_band,
+    Band, BendingForm, BendingStress, InPlaneElasticity, NeoHookean, Skalak, StrainAdvection,
+    StrainTransport, SurfaceLaw, advective_tendency, advective_tendency_in_frame, equibiaxial_tension,
+    fill_projector, mean_curvature_at, reset_outside_band,
 };
 use eulermembrane::tensor::{Sym, cross, projector};
 use std::f64::consts::PI;
@@ -166,7 +166,7 @@ fn laplace<L: SurfaceLaw<f64>>(law: L, radius: f64, lambda: f64, eps: f64) -> (f
     e.evaluate(g, &band, &gs, &s.normal, &s.delta, 1e-3).unwrap();
     let mut f = VectorField::zeros(g);
     let v = VectorField::zeros(g);
-    e.forcing(&band).unwrap().add(g, 0.0, &v, &mut f);
+    e.forcing(&band).unwrap().add(g, 0.0, &v, &mut f).unwrap();
     let area = 4.0 * PI * s.radius * s.radius;
     let inward = inward_force(&s, &f);
     let band_area: f64 = band.cells().iter().map(|&i| s.delta.data[i]).sum::<f64>() * g.cell_volume();
@@ -205,7 +205,7 @@ fn reference_force<L: SurfaceLaw<f64>>(s: &Sphere, band: &Band<f64>, gs: &SymFie
     e.evaluate(g, band, gs, &s.normal, &s.delta, 1e-2).unwrap();
     // With a velocity: the Δt/4 H(v) part is not zero, but τ is.
     let mut f = VectorField::zeros(g);
-    e.forcing(band).unwrap().add(g, 0.0, &VectorField::zeros(g), &mut f);
+    e.forcing(band).unwrap().add(g, 0.0, &VectorField::zeros(g), &mut f).unwrap();
     for p in 0..band.len() {
         assert!(e.tau(p).unwrap().iter().all(|x| x.abs() < 1e-14));
     }
@@ -270,7 +270,7 @@ fn prestretched_circle_in_2d_gives_t_over_r() {
     let mut e = InPlaneElasticity::new(g, law);
     e.evaluate(g, &band, &gs, &normal, &delta, 1e-3).unwrap();
     let mut f = VectorField::zeros(g);
-    e.forcing(&band).unwrap().add(g, 0.0, &VectorField::zeros(g), &mut f);
+    e.forcing(&band).unwrap().add(g, 0.0, &VectorField::zeros(g), &mut f).unwrap();
     assert!(f.c[2].data.iter().all(|x| x.abs() < 1e-14), "no force along z");
     let mut inward = 0.0;
     for (i, j, k) in g.cells() {
@@ -311,7 +311,7 @@ fn implicit_term_is_consistent() {
     let imp = e.implicit(&band).unwrap();
     let x = wavy(g, 1.0, 0.3);
     let mut y = VectorField::zeros(g);
-    imp.add_apply(g, &x, &mut y);
+    imp.add_apply(g, &x, &mut y).unwrap();
     let scale = max_abs(&y, g);
     assert!(scale > 1e-6);
     let mut worst: f64 = 0.0;
@@ -334,8 +334,8 @@ fn implicit_term_is_consistent() {
     }
     let forcing = e.forcing(&band).unwrap();
     let (mut f0, mut f1) = (VectorField::zeros(g), VectorField::zeros(g));
-    forcing.add(g, 0.0, &v, &mut f0);
-    forcing.add(g, 0.0, &vp, &mut f1);
+    forcing.add(g, 0.0, &v, &mut f0).unwrap();
+    forcing.add(g, 0.0, &vp, &mut f1).unwrap();
     let mut worst: f64 = 0.0;
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
@@ -418,10 +418,10 @@ fn bending_reference(radius: f64, normals: Normals, kref: RefCurvature) -> (f64,
         kr.data[idx] = s.delta.data[idx] * kappa;
     }
     kr.fill_ghosts(g);
-    let mut b = Bending::new(g, eb).unwrap();
+    let mut b = BendingStress::new(g, eb).unwrap();
     b.evaluate(g, &band, &s.normal, &s.delta, &kr).unwrap();
     let mut f = VectorField::zeros(g);
-    b.forcing(&band).unwrap().add(g, 0.0, &VectorField::zeros(g), &mut f);
+    b.forcing(&band).unwrap().add(g, 0.0, &VectorField::zeros(g), &mut f).unwrap();
     let r3 = s.radius.powi(3);
     let delta_max = 0.5; // β / (2h)
     let linf = max_abs(&f, g) / (eb * delta_max / r3);
@@ -465,13 +465,13 @@ fn bending_mode(radius: f64, form: BendingForm) -> (f64, f64) {
         kr.data[idx] = s.delta.data[idx] * (1.0 + a * d[2] / r) / r;
     }
     kr.fill_ghosts(g);
-    let mut b = Bending::new(g, eb).unwrap();
+    let mut b = BendingStress::new(g, eb).unwrap();
     match form {
         BendingForm::EnergyGradient => b.evaluate_variational(g, &band, &s.phi, &kr, false).unwrap(),
         _ => b.evaluate(g, &band, &s.normal, &s.delta, &kr).unwrap(),
     }
     let mut f = VectorField::zeros(g);
-    b.forcing(&band).unwrap().add(g, 0.0, &VectorField::zeros(g), &mut f);
+    b.forcing(&band).unwrap().add(g, 0.0, &VectorField::zeros(g), &mut f).unwrap();
     let (mut mr, mut mt) = (0.0, 0.0);
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
@@ -567,13 +567,13 @@ fn shape_mode_stiffness(radius: f64, eps: f64, form: BendingForm) -> f64 {
     let mut band = Band::new(&g, 0.01).unwrap();
     band.rebuild(&g, &delta).unwrap();
     let eb = 1.0;
-    let mut b = Bending::new(&g, eb).unwrap();
+    let mut b = BendingStress::new(&g, eb).unwrap();
     match form {
         BendingForm::EnergyGradient => b.evaluate_variational(&g, &band, &phi, &kr, true).unwrap(),
         _ => b.evaluate(&g, &band, &normal, &delta, &kr).unwrap(),
     }
     let mut f = VectorField::zeros(&g);
-    b.forcing(&band).unwrap().add(&g, 0.0, &VectorField::zeros(&g), &mut f);
+    b.forcing(&band).unwrap().add(&g, 0.0, &VectorField::zeros(&g), &mut f).unwrap();
     let mut m2 = 0.0;
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
@@ -1011,12 +1011,12 @@ fn whole_pipeline_runs_in_f32() {
     let mut v = VectorField::from_fn(g, |x| [0.01 * (x[1] * 0.3).sin(), 0.0, 0.0]);
     v.fill_ghosts(g);
     let mut f = VectorField::zeros(g);
-    e.forcing(&band).unwrap().add(g, 0.0, &v, &mut f);
-    e.implicit(&band).unwrap().add_apply(g, &v, &mut f);
+    e.forcing(&band).unwrap().add(g, 0.0, &v, &mut f).unwrap();
+    e.implicit(&band).unwrap().add_apply(g, &v, &mut f).unwrap();
     let kr = Field { data: delta.data.iter().map(|d| d / 5.0).collect() };
-    let mut b = Bending::new(g, 0.1f32).unwrap();
+    let mut b = BendingStress::new(g, 0.1f32).unwrap();
     b.evaluate(g, &band, &normal, &delta, &kr).unwrap();
-    b.forcing(&band).unwrap().add(g, 0.0, &v, &mut f);
+    b.forcing(&band).unwrap().add(g, 0.0, &v, &mut f).unwrap();
     let mut tr = StrainTransport::new(g).unwrap();
     tr.step(g, &band, 0.01, &v, &v, &normal, &mut gs).unwrap();
     assert!(f.first_non_finite(g).is_none());
@@ -1028,8 +1028,8 @@ fn bad_input_is_an_error() {
     let s = sphere(4.0, Normals::Phi);
     let g = &s.grid;
     assert!(Band::new(g, 1.5).is_err());
-    assert!(Bending::new(g, 0.0).is_err());
-    assert!(Bending::new(g, f64::INFINITY).is_err());
+    assert!(BendingStress::new(g, 0.0).is_err());
+    assert!(BendingStress::new(g, f64::INFINITY).is_err());
     let mut band = Band::new(g, 0.05).unwrap();
     band.rebuild(g, &s.delta).unwrap();
     let mut gs = stretched(&s, 1.0);

@@ -7,7 +7,7 @@ use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::NormalScheme;
 use eulermembrane::interface::shapes::{Circle, Sphere};
 use eulermembrane::membrane::{BendingForm, NeoHookean, Skalak};
-use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{GsTransport, Phase, ReferenceArea, Scene, Settings, Simulation};
 use eulermembrane::tensor::{dot, sym_mul_vec};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -328,7 +328,10 @@ fn reference_area_and_elastic_energy_of_a_prestretched_capsule() {
 #[test]
 fn conserve_reference_area_keeps_the_membranes_reference_area() {
     let build = |conserve: bool| -> Simulation<f64> {
-        let settings = Settings { conserve_reference_area: conserve, ..Settings::default() };
+        let settings = Settings {
+            reference_area: if conserve { ReferenceArea::Conserved } else { ReferenceArea::Transported },
+            ..Settings::default()
+        };
         Scene::new(box16(), fluid())
             .capsule(Sphere::new([0.5, 0.5, 0.5], 0.3).unwrap())
             .elasticity(NeoHookean::new(2.0).unwrap())
@@ -439,12 +442,13 @@ fn squashed_sphere_default_energy_error() {
 
 /// In the continuum `G_s = F P_R F^T` (2.18) is tangential; the discrete transport (2.40) lets
 /// normal components grow, and a shear across the membrane feeds them into the in-plane block.
-/// `Settings::tangential_gs` removes them after each step: `|G_s n|` stays at round-off. On its
+/// `GsTransport::Tangential` removes them after each step: `|G_s n|` stays at round-off. On its
 /// own it does not lower the squashed sphere's energy error at N = 32 (2.82e-2 against 2.31e-2);
 /// at N = 64 it does (4.50e-3 against 1.21e-2, `docs/validation.md`).
 #[test]
 fn tangential_gs_keeps_g_s_tangential() {
-    let (err_t, gn_t, vol_t) = squashed_sphere_n32(Settings { tangential_gs: true, ..Settings::default() });
+    let (err_t, gn_t, vol_t) =
+        squashed_sphere_n32(Settings { gs_transport: GsTransport::Tangential, ..Settings::default() });
     let (_, gn_p, vol_p) = squashed_sphere_n32_default();
     assert!(gn_t < 1e-12, "|G_s n| = {gn_t} with the projection");
     assert!(gn_p > 1e-2, "|G_s n| = {gn_p} without it");
@@ -452,14 +456,15 @@ fn tangential_gs_keeps_g_s_tangential() {
     assert!(err_t < 0.03, "energy error {err_t} with the projection");
 }
 
-/// `Settings::tangent_frame_gs` on the same squashed sphere: the transport in the tangent frame
+/// `GsTransport::TangentFrame` on the same squashed sphere: the transport in the tangent frame
 /// halves the energy error (measured 1.13e-2 of the peak elastic energy at N = 32, against
 /// 2.31e-2 with the paper's transport; at N = 64, `docs/validation.md`: 8.73e-3 against 1.21e-2
 /// to `t = 0.7`). It does not keep `G_s` tangential by itself (`|G_s n|` stays well above
 /// round-off on the band): the normal part has other sources as well.
 #[test]
 fn tangent_frame_transport_lowers_the_energy_error() {
-    let (err, gn, vol) = squashed_sphere_n32(Settings { tangent_frame_gs: true, ..Settings::default() });
+    let (err, gn, vol) =
+        squashed_sphere_n32(Settings { gs_transport: GsTransport::TangentFrame, ..Settings::default() });
     let (err_p, _, _) = squashed_sphere_n32_default();
     assert!(err < 0.6 * err_p, "energy error {err} in the tangent frame, {err_p} without");
     assert!(gn > 1e-2, "|G_s n| = {gn}");
@@ -471,7 +476,7 @@ fn tangent_frame_transport_lowers_the_energy_error() {
 /// 1.45e-2, also below the paper's transport.
 #[test]
 fn both_transport_options_lower_the_energy_error() {
-    let both = Settings { tangential_gs: true, tangent_frame_gs: true, ..Settings::default() };
+    let both = Settings { gs_transport: GsTransport::TangentFrameTangential, ..Settings::default() };
     let (err, gn, vol) = squashed_sphere_n32(both);
     let (err_p, _, _) = squashed_sphere_n32_default();
     assert!(err < 0.7 * err_p, "energy error {err} with both options, {err_p} without");

@@ -14,27 +14,34 @@ pub trait Forcing<T: Real>: Sync {
     }
     /// Adds the force density at time `time`, given the velocity `v` (ghosts filled), to the
     /// interior faces of `out`.
-    fn add(&self, grid: &Grid<T>, time: T, v: &VectorField<T>, out: &mut VectorField<T>);
+    ///
+    /// # Errors
+    /// Whatever keeps the force from being evaluated (a field of another grid, a value that
+    /// cannot be computed); the step that asked for it then fails and leaves its state as it was.
+    fn add(&self, grid: &Grid<T>, time: T, v: &VectorField<T>, out: &mut VectorField<T>) -> Result<()>;
 }
 
 impl<T: Real> Forcing<T> for () {
     fn is_active(&self) -> bool {
         false
     }
-    fn add(&self, _: &Grid<T>, _: T, _: &VectorField<T>, _: &mut VectorField<T>) {}
+    fn add(&self, _: &Grid<T>, _: T, _: &VectorField<T>, _: &mut VectorField<T>) -> Result<()> {
+        Ok(())
+    }
 }
 
 impl<T: Real, A: Forcing<T>, B: Forcing<T>> Forcing<T> for (A, B) {
     fn is_active(&self) -> bool {
         self.0.is_active() || self.1.is_active()
     }
-    fn add(&self, grid: &Grid<T>, time: T, v: &VectorField<T>, out: &mut VectorField<T>) {
+    fn add(&self, grid: &Grid<T>, time: T, v: &VectorField<T>, out: &mut VectorField<T>) -> Result<()> {
         if self.0.is_active() {
-            self.0.add(grid, time, v, out);
+            self.0.add(grid, time, v, out)?;
         }
         if self.1.is_active() {
-            self.1.add(grid, time, v, out);
+            self.1.add(grid, time, v, out)?;
         }
+        Ok(())
     }
 }
 
@@ -64,7 +71,8 @@ impl<T: Real> Forcing<T> for BodyForce<T> {
     fn is_active(&self) -> bool {
         self.f.iter().any(|&x| x != T::zero())
     }
-    fn add(&self, grid: &Grid<T>, _: T, _: &VectorField<T>, out: &mut VectorField<T>) {
+    fn add(&self, grid: &Grid<T>, _: T, _: &VectorField<T>, out: &mut VectorField<T>) -> Result<()> {
+        out.matches(grid, "force")?;
         for (d, comp) in out.c.iter_mut().enumerate() {
             if self.f[d] == T::zero() {
                 continue;
@@ -79,5 +87,6 @@ impl<T: Real> Forcing<T> for BodyForce<T> {
                 },
             );
         }
+        Ok(())
     }
 }

@@ -14,7 +14,11 @@ use crate::{Error, Real, Result};
 /// (the boundary closure of the operator) before reading them.
 pub trait LinOp<T: Real, V> {
     /// Writes `A x` into the interior of `y`.
-    fn apply(&self, x: &mut V, y: &mut V);
+    ///
+    /// # Errors
+    /// Whatever keeps an operator from being applied (e.g. an extra term of the predictor that
+    /// fails); the solve that called it returns the error.
+    fn apply(&self, x: &mut V, y: &mut V) -> Result<()>;
 }
 
 /// A preconditioner `z = M^-1 r`.
@@ -117,7 +121,7 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
     let Some(bnorm) = nonzero_rhs_norm(grid, b, x) else { return Ok(KrylovInfo::default()) };
     let KrylovWorkspace { r, rhat, p, v, s, t, phat, shat } = ws;
     // r = b - A x
-    op.apply(x, r);
+    op.apply(x, r)?;
     r.axpby(grid, T::one(), b, -T::one());
     let mut res = r.norm(grid) / bnorm;
     if !res.is_finite() {
@@ -132,7 +136,7 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
     // Each vector update below is one fused pass that also takes the sums needed next.
     for it in 1..=params.max_iterations {
         pc.apply(p, phat);
-        op.apply(phat, v);
+        op.apply(phat, v)?;
         let rv = rhat.dot(grid, v);
         if rv == T::zero() || !rv.is_finite() {
             return Err(no_convergence("BiCGStab (breakdown)", it, res.f64(), params.tolerance));
@@ -149,7 +153,7 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
             return Ok(KrylovInfo { iterations: it, residual: snorm.f64() });
         }
         pc.apply(s, shat);
-        op.apply(shat, t);
+        op.apply(shat, t)?;
         let [tt, ts] = t.reduce(grid, [s], |t, [s]| [t * t, t * s]);
         let omega = if tt > T::zero() { ts / tt } else { T::zero() };
         // x += alpha phat + omega shat
@@ -191,7 +195,7 @@ pub fn pcg<T: Real, V: InteriorVector<T>>(
     let tol = T::lit(params.tolerance);
     let Some(bnorm) = nonzero_rhs_norm(grid, b, x) else { return Ok(KrylovInfo::default()) };
     let KrylovWorkspace { r, p, v: ap, shat: z, .. } = ws;
-    op.apply(x, r);
+    op.apply(x, r)?;
     r.axpby(grid, T::one(), b, -T::one());
     let mut res = r.norm(grid) / bnorm;
     if res <= tol {
@@ -201,7 +205,7 @@ pub fn pcg<T: Real, V: InteriorVector<T>>(
     p.assign(z);
     let mut rz = r.dot(grid, z);
     for it in 1..=params.max_iterations {
-        op.apply(p, ap);
+        op.apply(p, ap)?;
         let pap = p.dot(grid, ap);
         if pap <= T::zero() || !pap.is_finite() {
             return Err(no_convergence("PCG (breakdown)", it, res.f64(), params.tolerance));

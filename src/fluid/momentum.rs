@@ -457,8 +457,14 @@ pub(crate) fn is_wall_face<T: Real>(grid: &Grid<T>, c: usize, ijk: [usize; 3]) -
 /// `-(dt/4) div(delta H(v*, G_s^n, J^n))`. The operator calls it after its own part.
 pub trait ImplicitTerm<T: Real>: Sync {
     /// Adds this term's contribution to `y = P x` on interior faces (ghosts of `x` are filled).
-    fn add_apply(&self, grid: &Grid<T>, x: &VectorField<T>, y: &mut VectorField<T>);
-    /// This term's contribution to `(P x)_c` at face `idx` (used by the SOR reference solver).
+    ///
+    /// # Errors
+    /// Whatever keeps the term from being applied (e.g. fields of another grid); the predictor
+    /// solve, and with it the step, then fails and leaves the state as it was.
+    fn add_apply(&self, grid: &Grid<T>, x: &VectorField<T>, y: &mut VectorField<T>) -> Result<()>;
+    /// This term's contribution to `(P x)_c` at face `idx`, used by the SOR reference solver.
+    /// It cannot fail: a term that can fail reports it from [`add_apply`](Self::add_apply),
+    /// which the default Krylov predictor calls.
     fn apply_at(&self, grid: &Grid<T>, x: &VectorField<T>, c: usize, idx: usize) -> T;
 }
 
@@ -519,7 +525,7 @@ impl<'a, T: Real> Predictor<'a, T> {
     }
 
     /// `y = P x` on interior faces, with the ghosts of `x` as they are.
-    pub(crate) fn apply_raw(&self, x: &VectorField<T>, y: &mut VectorField<T>) {
+    pub(crate) fn apply_raw(&self, x: &VectorField<T>, y: &mut VectorField<T>) -> Result<()> {
         let g = self.grid;
         match (self.rho, self.mu.mu, self.mu.edge) {
             (Coefficient::Uniform(rho), Coefficient::Uniform(mu), _) => {
@@ -537,15 +543,16 @@ impl<'a, T: Real> Predictor<'a, T> {
             }
         }
         if let Some(e) = self.extra {
-            e.add_apply(g, x, y);
+            e.add_apply(g, x, y)?;
         }
+        Ok(())
     }
 }
 
 impl<T: Real> LinOp<T, VectorField<T>> for Predictor<'_, T> {
-    fn apply(&self, x: &mut VectorField<T>, y: &mut VectorField<T>) {
+    fn apply(&self, x: &mut VectorField<T>, y: &mut VectorField<T>) -> Result<()> {
         x.fill_ghosts_homogeneous(self.grid);
-        self.apply_raw(x, y);
+        self.apply_raw(x, y)
     }
 }
 
@@ -703,7 +710,7 @@ mod tests {
                 }
             }
             let mut b = VectorField::zeros(&g);
-            op.apply(&mut target, &mut b);
+            op.apply(&mut target, &mut b).unwrap();
             let params = KrylovParams { tolerance: 1e-10, ..Default::default() };
             let mut ws = KrylovWorkspace::new(&g);
             let mut pc = HelmholtzPrecond::new(&g).unwrap();
@@ -763,8 +770,8 @@ mod tests {
                 extra: None,
             };
             let (mut y1, mut y2) = (VectorField::zeros(&g), VectorField::zeros(&g));
-            fast.apply_raw(&x, &mut y1);
-            slow.apply_raw(&x, &mut y2);
+            fast.apply_raw(&x, &mut y1).unwrap();
+            slow.apply_raw(&x, &mut y2).unwrap();
             for d in 0..3 {
                 for (i, j, k) in g.cells() {
                     let id = g.idx_u(i, j, k);
@@ -838,7 +845,7 @@ mod tests {
                     extra: None,
                 };
                 let (mut y1, mut y2) = (VectorField::zeros(&g), VectorField::zeros(&g));
-                fast.apply_raw(&x, &mut y1);
+                fast.apply_raw(&x, &mut y1).unwrap();
                 for (c, yc) in y2.c.iter_mut().enumerate() {
                     par_interior(&g, &mut yc.data, |idx, i, j, k| {
                         fast.base_at(&x, c, idx, is_wall_face(&g, c, [i, j, k]))

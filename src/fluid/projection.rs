@@ -25,7 +25,7 @@ struct VariableDensityOp<'a, T> {
 }
 
 impl<T: Real> LinOp<T, Field<T>> for VariableDensityOp<'_, T> {
-    fn apply(&self, x: &mut Field<T>, y: &mut Field<T>) {
+    fn apply(&self, x: &mut Field<T>, y: &mut Field<T>) -> Result<()> {
         let g = self.grid;
         x.fill_ghosts(g);
         let st = g.strides();
@@ -51,6 +51,7 @@ impl<T: Real> LinOp<T, Field<T>> for VariableDensityOp<'_, T> {
             }
             -s
         });
+        Ok(())
     }
 }
 

@@ -111,6 +111,8 @@ pub struct FlowStepper<T: Real> {
     vstar_prev: VectorField<T>,
     has_history: bool,
     moving_walls: bool,
+    /// `dt` of the step computed by [`prepare`](FlowStepper::prepare) and not yet committed.
+    prepared: Option<T>,
     ws: Workspace<T>,
 }
 
@@ -157,6 +159,7 @@ impl<T: Real> FlowStepper<T> {
             vstar_prev: z(),
             has_history: false,
             moving_walls,
+            prepared: None,
             ws: Workspace {
                 adv: z(),
                 rhs: z(),
@@ -202,6 +205,7 @@ impl<T: Real> FlowStepper<T> {
     /// Replaces the materials used by the next steps (e.g. the mixture (2.25) of a new `phi`).
     /// Errors: a non-positive or non-finite value (the stepper keeps its materials).
     pub fn set_materials(&mut self, mut materials: Materials<T>) -> Result<()> {
+        self.prepared = None;
         materials.rho.validate(&self.grid, "rho")?;
         materials.mu.validate(&self.grid, "mu")?;
         materials.rho.fill_ghosts(&self.grid);
@@ -213,6 +217,7 @@ impl<T: Real> FlowStepper<T> {
     /// Sets the velocity from `f(x)` sampled at the faces, and clears the time history (the next
     /// step starts with forward Euler for advection). Errors: a non-finite value.
     pub fn set_velocity(&mut self, f: impl Fn([T; 3]) -> [T; 3]) -> Result<()> {
+        self.prepared = None;
         let mut v = VectorField::from_fn(&self.grid, f);
         v.fill_ghosts(&self.grid);
         if let Some((c, cell)) = v.first_non_finite(&self.grid) {
@@ -227,6 +232,7 @@ impl<T: Real> FlowStepper<T> {
     /// Sets the pressure from `f(x)` at cell centres (e.g. an exact initial pressure). Errors: a
     /// non-finite value.
     pub fn set_pressure(&mut self, f: impl Fn([T; 3]) -> T) -> Result<()> {
+        self.prepared = None;
         let mut p = Field::from_cell_fn(&self.grid, f);
         if let Some(cell) = p.first_non_finite(&self.grid) {
             return Err(Error::NonFinite { field: "pressure", cell });
@@ -264,6 +270,7 @@ impl<T: Real> FlowStepper<T> {
     /// state is replaced only if everything could be read. Errors: a checkpoint of another
     /// grid, a missing entry.
     pub fn restore(&mut self, r: &CheckpointReader, prefix: &str) -> Result<()> {
+        self.prepared = None;
         let g = &self.grid;
         let n = g.n();
         for (d, axis) in ["nx", "ny", "nz"].iter().enumerate() {
@@ -313,7 +320,7 @@ impl<T: Real> FlowStepper<T> {
     }
 
     /// Advances one step of size `dt` with the explicit forcing `forcing` and an optional extra
-    /// implicit term of the predictor.
+    /// implicit term of the predictor: [`prepare`](Self::prepare) and [`commit`](Self::commit).
     pub fn step(
         &mut self,
         dt: T,
@@ -321,12 +328,18 @@ impl<T: Real> FlowStepper<T> {
         extra: Option<&dyn ImplicitTerm<T>>,
     ) -> Result<StepInfo> {
         let info = self.prepare(dt, forcing, extra)?;
-        self.commit(dt);
+        self.commit_prepared(dt);
         Ok(info)
     }
 
-    /// The new velocity computed by [`prepare`](Self::prepare), not yet committed.
-    pub(crate) fn proposed_velocity(&self) -> &VectorField<T> {
+    /// The new velocity `v^{n+1}` computed by [`prepare`](Self::prepare), not yet committed
+    /// (`None` when no step is prepared).
+    pub fn proposed_velocity(&self) -> Option<&VectorField<T>> {
+        self.prepared.map(|_| &self.ws.v_new)
+    }
+
+    /// The proposed velocity of the prepared step, for a driver that prepared one.
+    pub(crate) fn prepared_velocity(&self) -> &VectorField<T> {
         &self.ws.v_new
     }
 
@@ -336,15 +349,23 @@ impl<T: Real> FlowStepper<T> {
         &mut self.materials
     }
 
-    /// Computes the step into the workspace without touching the state: [`commit`](Self::commit)
-    /// makes it the new state, anything else discards it. The returned information is that of
-    /// the step once committed.
-    pub(crate) fn prepare(
+    /// Computes the step into the workspace without touching the state (the first phase of
+    /// [`step`](Self::step), for drivers that must see the new velocity before they accept it,
+    /// e.g. to advance a membrane with `v^n` and `v^{n+1}`): [`commit`](Self::commit) makes it
+    /// the new state; another `prepare`, or [`discard`](Self::discard), forgets it. The returned
+    /// information is that of the step once committed.
+    ///
+    /// # Errors
+    /// `dt` not finite and `> 0`; a forcing or implicit term that fails; a solver that does not
+    /// converge; a non-finite force or velocity. The state is then as before the call and no
+    /// step is prepared.
+    pub fn prepare(
         &mut self,
         dt: T,
         forcing: &impl Forcing<T>,
         extra: Option<&dyn ImplicitTerm<T>>,
     ) -> Result<StepInfo> {
+        self.prepared = None;
         crate::error::positive("dt", dt)?;
         let g = &self.grid;
         let inv_dt = T::one() / dt;
@@ -377,7 +398,7 @@ impl<T: Real> FlowStepper<T> {
             for c in 0..3 {
                 ws.force.c[c].fill(T::zero());
             }
-            forcing.add(g, self.time, &self.v, &mut ws.force);
+            forcing.add(g, self.time, &self.v, &mut ws.force)?;
             if let Some((c, cell)) = ws.force.first_non_finite(g) {
                 return Err(Error::NonFinite { field: ["force.u", "force.v", "force.w"][c], cell });
             }
@@ -421,7 +442,7 @@ impl<T: Real> FlowStepper<T> {
                 lift.c[c].fill(T::zero());
             }
             lift.fill_ghosts(g);
-            op.apply_raw(lift, &mut ws.vstar);
+            op.apply_raw(lift, &mut ws.vstar)?;
             for c in 0..3 {
                 let l = &ws.vstar.c[c].data;
                 par_interior_update(g, &mut ws.rhs.c[c].data, |idx, _, _, _, b| b - l[idx]);
@@ -460,6 +481,7 @@ impl<T: Real> FlowStepper<T> {
         }
 
         // Nothing above touched the state.
+        self.prepared = Some(dt);
         Ok(StepInfo {
             step: self.step + 1,
             time: (self.time + dt).f64(),
@@ -473,7 +495,29 @@ impl<T: Real> FlowStepper<T> {
     }
 
     /// Makes the step computed by the last successful [`prepare`](Self::prepare) the new state.
-    pub(crate) fn commit(&mut self, dt: T) {
+    ///
+    /// # Errors
+    /// [`Error::Unsupported`] when no step is prepared (none yet, or it was committed or
+    /// discarded); the state is unchanged.
+    pub fn commit(&mut self) -> Result<()> {
+        let Some(dt) = self.prepared else {
+            return Err(Error::Unsupported {
+                component: "FlowStepper::commit",
+                detail: "no prepared step: call prepare first (a step is committed once)".into(),
+            });
+        };
+        self.commit_prepared(dt);
+        Ok(())
+    }
+
+    /// Forgets a prepared step (nothing happens when none is prepared).
+    pub fn discard(&mut self) {
+        self.prepared = None;
+    }
+
+    /// The body of [`commit`](Self::commit) for the step prepared with `dt`.
+    fn commit_prepared(&mut self, dt: T) {
+        self.prepared = None;
         let g = &self.grid;
         let ws = &mut self.ws;
         std::mem::swap(&mut self.v, &mut ws.v_new);

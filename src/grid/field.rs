@@ -102,6 +102,19 @@ pub struct VectorField<T> {
 }
 
 impl<T: Real> VectorField<T> {
+    /// `Ok` if every component is a field of `grid`, else [`Error::InvalidParameter`](crate::Error)
+    /// naming `name`.
+    pub fn matches(&self, grid: &Grid<T>, name: &'static str) -> crate::Result<()> {
+        if self.c.iter().any(|f| f.data.len() != grid.len()) {
+            return Err(crate::Error::invalid(
+                name,
+                "a vector field of another grid",
+                "a field of the step's grid",
+            ));
+        }
+        Ok(())
+    }
+
     /// Zero vector field.
     pub fn zeros(grid: &Grid<T>) -> Self {
         VectorField { c: std::array::from_fn(|_| Field::zeros(grid)) }

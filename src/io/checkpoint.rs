@@ -54,6 +54,12 @@ impl CheckpointWriter {
         self.insert(name, vec![x])
     }
 
+    /// Adds a line of text (stored as its UTF-8 bytes, one value each); an earlier entry of the
+    /// same name is replaced.
+    pub fn text(&mut self, name: &str, text: &str) -> &mut Self {
+        self.insert(name, text.bytes().map(f64::from).collect())
+    }
+
     fn insert(&mut self, name: &str, data: Vec<f64>) -> &mut Self {
         match self.entries.iter_mut().find(|(n, _)| n == name) {
             Some(entry) => entry.1 = data,
@@ -144,12 +150,30 @@ impl CheckpointReader {
         Ok(CheckpointReader { path: path.to_string(), entries })
     }
 
-    /// The array `name`, which must hold `len` values.
-    pub fn array<T: Real>(&self, name: &str, len: usize) -> Result<Vec<T>> {
-        let data = self.entries.get(name).ok_or_else(|| Error::Io {
+    /// The entry `name`, or an error naming it.
+    fn entry(&self, name: &str) -> Result<&Vec<f64>> {
+        self.entries.get(name).ok_or_else(|| Error::Io {
             path: self.path.clone(),
             message: format!("checkpoint has no entry `{name}`"),
-        })?;
+        })
+    }
+
+    /// The text `name` (written by [`CheckpointWriter::text`]).
+    pub fn text(&self, name: &str) -> Result<String> {
+        let bytes: Option<Vec<u8>> = self
+            .entry(name)?
+            .iter()
+            .map(|&x| (x >= 0.0 && x <= 255.0 && x.fract() == 0.0).then_some(x as u8))
+            .collect();
+        bytes.and_then(|b| String::from_utf8(b).ok()).ok_or_else(|| Error::Io {
+            path: self.path.clone(),
+            message: format!("entry `{name}` is not text"),
+        })
+    }
+
+    /// The array `name`, which must hold `len` values.
+    pub fn array<T: Real>(&self, name: &str, len: usize) -> Result<Vec<T>> {
+        let data = self.entry(name)?;
         if data.len() != len {
             return Err(Error::Io {
                 path: self.path.clone(),

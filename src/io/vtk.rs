@@ -190,6 +190,16 @@ impl PvdSeries {
         Self::default()
     }
 
+    /// Number of snapshots.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether the series has no snapshot.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
     /// Adds a snapshot file (path relative to the `.pvd` file) at `time`.
     pub fn push(&mut self, time: f64, file: impl Into<String>) {
         self.entries.push((time, file.into()));

@@ -66,14 +66,14 @@
 //!    force ([`super::force`]: `a = c` differenced across the face, `a ≠ c` averaged to the
 //!    edges).
 //!
-//! The force depends on `φ` only (not on the velocity): [`Bending::evaluate`] computes it once
+//! The force depends on `φ` only (not on the velocity): [`BendingStress::evaluate`] computes it once
 //! per step (from `n^{n+1}`, `δ^{n+1}`, `κ̃_R^{n+1}` in the paper's (2.35)) and
-//! [`Bending::forcing`] adds it. A scene without bending creates no [`Bending`] and computes or
+//! [`BendingStress::forcing`] adds it. A scene without bending creates no [`BendingStress`] and computes or
 //! stores none of this: the work arrays are owned here and sized by the band.
 //!
 //! # Two forms
 //!
-//! [`BendingForm::EnergyGradient`] ([`Bending::evaluate_variational`]) is the exact gradient
+//! [`BendingForm::EnergyGradient`] ([`BendingStress::evaluate_variational`]) is the exact gradient
 //! of a discrete bending energy built from the same moment `m̃`: its power balances the
 //! energy's rate of change, so no discrete error can feed a mode. It is the gradient of
 //! `∫ ½ E_b |κ − κ_R P|² dA`, which is not Pozrikidis' model: see its docs.
@@ -113,7 +113,7 @@ pub fn mean_curvature_at<T: Real>(grid: &Grid<T>, normal: &[Field<T>; 3], idx: u
 /// The bending of the membrane: `m̃`, `q̃` and the face force `∇·(q̃ n)` on a band (see the
 /// [module docs](self)).
 #[derive(Debug, Clone)]
-pub struct Bending<T> {
+pub struct BendingStress<T> {
     eb: T,
     grid: Grid<T>,
     generation: u64,
@@ -129,15 +129,15 @@ pub struct Bending<T> {
     face_halo: usize,
 }
 
-/// Which discrete bending force [`Bending`] evaluates.
+/// Which discrete bending force [`BendingStress`] evaluates.
 #[non_exhaustive]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BendingForm {
-    /// The paper's `∇·(q̃ n)` (2.16)-(2.17) ([`Bending::evaluate`]).
+    /// The paper's `∇·(q̃ n)` (2.16)-(2.17) ([`BendingStress::evaluate`]).
     #[default]
     Divergence,
     /// The exact gradient of the discrete energy `Σ ½ E_b δ |κ − κ_R P|² h³` with the same
-    /// moment `m̃` ([`Bending::evaluate_variational`]; not in the paper). It cannot do work on
+    /// moment `m̃` ([`BendingStress::evaluate_variational`]; not in the paper). It cannot do work on
     /// the fluid that the energy does not pay for.
     EnergyGradient,
 }
@@ -156,15 +156,15 @@ impl BendingForm {
     }
 }
 
-impl<T: Real> Bending<T> {
+impl<T: Real> BendingStress<T> {
     /// Bending with modulus `eb` (`E_b`) on `grid`. Nothing is evaluated or allocated yet.
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] naming `eb` unless it is finite and `> 0` (a membrane without
-    /// bending simply has no `Bending`).
+    /// bending simply has no `BendingStress`).
     pub fn new(grid: &Grid<T>, eb: T) -> Result<Self> {
         positive("eb", eb)?;
-        Ok(Bending {
+        Ok(BendingStress {
             eb,
             grid: grid.clone(),
             generation: 0,
@@ -276,7 +276,11 @@ impl<T: Real> Bending<T> {
     fn begin(&mut self, grid: &Grid<T>, band: &Band<T>) -> Result<()> {
         self.generation = 0;
         if grid != &self.grid {
-            return Err(Error::invalid("grid", format!("{:?} cells", grid.n()), "the grid of Bending::new"));
+            return Err(Error::invalid(
+                "grid",
+                format!("{:?} cells", grid.n()),
+                "the grid of BendingStress::new",
+            ));
         }
         band.matches(grid)
     }
@@ -377,7 +381,7 @@ impl<T: Real> Bending<T> {
     pub fn forcing<'a>(&'a self, band: &'a Band<T>) -> Result<BendingForcing<'a, T>> {
         if self.generation == 0 || band.generation() != self.generation {
             return Err(Error::Unsupported {
-                component: "Bending",
+                component: "BendingStress",
                 detail: "not evaluated on this band (or the band was rebuilt since): call evaluate after \
                          Band::rebuild"
                     .into(),
@@ -387,10 +391,10 @@ impl<T: Real> Bending<T> {
     }
 }
 
-/// The bending force on the faces (a [`Forcing`]); see [`Bending::forcing`].
+/// The bending force on the faces (a [`Forcing`]); see [`BendingStress::forcing`].
 #[derive(Debug, Clone, Copy)]
 pub struct BendingForcing<'a, T> {
-    b: &'a Bending<T>,
+    b: &'a BendingStress<T>,
     band: &'a Band<T>,
 }
 
@@ -398,15 +402,13 @@ impl<T: Real> Forcing<T> for BendingForcing<'_, T> {
     fn is_active(&self) -> bool {
         !self.band.is_empty()
     }
-    /// Adds the force evaluated by [`Bending::evaluate`] on the faces of `halo(2)`.
+    /// Adds the force evaluated by [`BendingStress::evaluate`] on the faces of `halo(2)`.
     ///
-    /// # Panics
-    /// If `out` is not a field of the bending's grid.
-    fn add(&self, _grid: &Grid<T>, _time: T, _v: &VectorField<T>, out: &mut VectorField<T>) {
-        assert!(
-            out.c.iter().all(|f| f.data.len() == self.b.grid.len()),
-            "Bending: force field of another grid"
-        );
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `force` if `out` is not a field of the bending's grid.
+    fn add(&self, _grid: &Grid<T>, _time: T, _v: &VectorField<T>, out: &mut VectorField<T>) -> Result<()> {
+        out.matches(&self.b.grid, "force")?;
         scatter_add(self.band.halo(self.b.face_halo), &self.b.f, out);
+        Ok(())
     }
 }

@@ -322,12 +322,17 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
 
     /// `S = δ (a τ + b H(w))` per band cell into the scratch, then the face forces of `halo(1)`
     /// added to `out`.
-    fn add_force(&self, band: &Band<T>, w: &VectorField<T>, a: T, b: T, out: &mut VectorField<T>) {
+    fn add_force(
+        &self,
+        band: &Band<T>,
+        w: &VectorField<T>,
+        a: T,
+        b: T,
+        out: &mut VectorField<T>,
+    ) -> Result<()> {
         let grid = &self.grid;
-        assert!(
-            w.c.iter().chain(out.c.iter()).all(|f| f.data.len() == grid.len()),
-            "InPlaneElasticity: velocity or force field of another grid"
-        );
+        w.matches(grid, "velocity")?;
+        out.matches(grid, "force")?;
         let mut guard = self.scratch.lock().unwrap_or_else(|p| p.into_inner());
         let Scratch { s, f } = &mut *guard;
         s.resize(band.len(), [T::zero(); 6]);
@@ -358,6 +363,7 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
             *fo = face_divergence3(&st, &ih, m, lookup, sym_comp);
         });
         scatter_add(cells, f, out);
+        Ok(())
     }
 }
 
@@ -376,11 +382,11 @@ impl<T: Real, L: SurfaceLaw<T>> Forcing<T> for InPlaneForcing<'_, T, L> {
     /// Adds `∇·(δ (τⁿ + (Δt/4) H(v, G_sⁿ, Jⁿ)))` on the faces of `halo(1)` (only `∇·(δ τⁿ)`
     /// for the [explicit](InPlaneElasticity::explicit_forcing) force).
     ///
-    /// # Panics
-    /// If `v` or `out` are not fields of the elasticity's grid (the trait cannot return errors).
-    fn add(&self, _grid: &Grid<T>, _time: T, v: &VectorField<T>, out: &mut VectorField<T>) {
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `velocity` or `force` for a field of another grid.
+    fn add(&self, _grid: &Grid<T>, _time: T, v: &VectorField<T>, out: &mut VectorField<T>) -> Result<()> {
         let q = if self.quasi_implicit { T::lit(0.25) * self.e.dt } else { T::zero() };
-        self.e.add_force(self.band, v, T::one(), q, out);
+        self.e.add_force(self.band, v, T::one(), q, out)
     }
 }
 
@@ -394,11 +400,11 @@ pub struct InPlaneImplicit<'a, T: Real, L: SurfaceLaw<T>> {
 impl<T: Real, L: SurfaceLaw<T>> ImplicitTerm<T> for InPlaneImplicit<'_, T, L> {
     /// Adds `−(Δt/4) ∇·(δ H(x, G_sⁿ, Jⁿ))` on the faces of `halo(1)` (ghosts of `x` filled).
     ///
-    /// # Panics
-    /// If `x` or `y` are not fields of the elasticity's grid.
-    fn add_apply(&self, _grid: &Grid<T>, x: &VectorField<T>, y: &mut VectorField<T>) {
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `velocity` or `force` for a field of another grid.
+    fn add_apply(&self, _grid: &Grid<T>, x: &VectorField<T>, y: &mut VectorField<T>) -> Result<()> {
         let q = -T::lit(0.25) * self.e.dt;
-        self.e.add_force(self.band, x, T::zero(), q, y);
+        self.e.add_force(self.band, x, T::zero(), q, y)
     }
 
     /// The same at one face, recomputing `δ H` at the ten cells of the stencil (for SOR).

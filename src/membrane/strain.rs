@@ -275,6 +275,8 @@ pub struct StrainTransport<T> {
     adv: Vec<Sym<T>>,
     new_g: Vec<Sym<T>>,
     has_history: bool,
+    /// Generation of the band of the step computed by `prepare` and not yet committed (0: none).
+    prepared: u64,
 }
 
 impl<T: Real> StrainTransport<T> {
@@ -297,6 +299,7 @@ impl<T: Real> StrainTransport<T> {
             adv: Vec::new(),
             new_g: Vec::new(),
             has_history: false,
+            prepared: 0,
         })
     }
 
@@ -407,15 +410,15 @@ impl<T: Real> StrainTransport<T> {
             gs.fill_ghosts(grid);
         }
         self.prepare(grid, band, dt, v_old, v_new, normal, gs)?;
-        self.commit(band, normal, gs);
-        Ok(())
+        self.commit(band, normal, gs)
     }
 
     /// Computes `G^{n+1}` on the band into a work array, without touching `gs` (ghosts filled)
-    /// or the history: [`commit`](Self::commit) writes it. Same inputs and errors as
-    /// [`step`](Self::step).
+    /// or the history: [`commit`](Self::commit) writes it (the first phase of
+    /// [`step`](Self::step), for drivers that must know that every part of a step succeeded
+    /// before they change any state). Same inputs and errors as [`step`](Self::step).
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn prepare(
+    pub fn prepare(
         &mut self,
         grid: &Grid<T>,
         band: &Band<T>,
@@ -425,6 +428,7 @@ impl<T: Real> StrainTransport<T> {
         normal: &[Field<T>; 3],
         gs: &SymField<T>,
     ) -> Result<()> {
+        self.prepared = 0;
         if grid != &self.grid {
             return Err(Error::invalid(
                 "grid",
@@ -497,12 +501,24 @@ impl<T: Real> StrainTransport<T> {
             });
         }
 
+        self.prepared = band.generation();
         Ok(())
     }
 
     /// Writes the values computed by the last successful [`prepare`](Self::prepare) (same band,
     /// normal and `gs`): band values, re-set around the band, history.
-    pub(crate) fn commit(&mut self, band: &Band<T>, normal: &[Field<T>; 3], gs: &mut SymField<T>) {
+    ///
+    /// # Errors
+    /// [`Error::Unsupported`] when no step was prepared on `band` (none, another band, or the
+    /// band was rebuilt since); `gs` and the history are unchanged.
+    pub fn commit(&mut self, band: &Band<T>, normal: &[Field<T>; 3], gs: &mut SymField<T>) -> Result<()> {
+        if self.prepared == 0 || self.prepared != band.generation() {
+            return Err(Error::Unsupported {
+                component: "StrainTransport::commit",
+                detail: "no step prepared on this band: call prepare with it first".into(),
+            });
+        }
+        self.prepared = 0;
         let nb = band.len();
         let cells1 = band.halo(1);
         for (&idx, g) in band.cells().iter().zip(&self.new_g) {
@@ -521,5 +537,6 @@ impl<T: Real> StrainTransport<T> {
         }
         std::mem::swap(&mut self.prev_adv, &mut self.adv);
         self.has_history = true;
+        Ok(())
     }
 }

@@ -2,14 +2,14 @@
 //! only), the geometry derived from `phi` and the membrane band, double-buffered so that a step
 //! is computed beside the state and committed only when every part of it succeeded.
 
-use super::scene::{Settings, SharedLaw};
-use crate::grid::ops::cell_vector;
+use super::effect::{LevelChoice, MembraneView, Needs};
+use super::effects::reference_integral;
+use super::scene::{ReferenceArea, Settings};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::interface::geometry::{Band as PhiBand, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
-use crate::interface::{Advector, Geometry, NormalScheme};
-use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
-use crate::membrane::{Band, Bending, BendingForm, InPlaneElasticity, StrainTransport, fill_projector};
+use crate::interface::{Advector, Geometry};
+use crate::membrane::{Band, StrainTransport, fill_projector};
 use crate::{Real, Result};
 
 /// What is derived from `phi` at one time level.
@@ -36,37 +36,14 @@ pub(crate) struct Capsule<T: Real> {
     pub(crate) gs: Option<SymField<T>>,
     pub(crate) advector: Advector<T>,
     pub(crate) geometry: Geometry<T>,
-    pub(crate) elastic: Option<InPlaneElasticity<T, SharedLaw<T>>>,
+    /// The `G_s` transport (2.40) (only with `G_s`).
     pub(crate) strain: Option<StrainTransport<T>>,
-    pub(crate) bending: Option<Bending<T>>,
-    /// Which bending force `bending` evaluates.
-    bending_form: BendingForm,
     /// Saved AB2 history of the advector (restored when a step fails).
     saved: (Option<T>, Vec<T>, Vec<T>),
     /// The reference area `sum delta / j_s h^3` that [`Settings::conserve_reference_area`]
     /// restores after each step (set from the initial state and by a pre-stretch); `None`
     /// without that setting or without elasticity.
     pub(crate) reference_target: Option<f64>,
-}
-
-/// `sum delta q / j_s h^3` over the band of `level`: the integral of `q` (a function of the
-/// surface kinematics of `gs`) over the membrane's reference area (`dA_R = dA / j_s`,
-/// `j_s = sqrt(c2)`; cells with `c2 <= 0` left out).
-pub(crate) fn reference_integral<T: Real>(
-    grid: &Grid<T>,
-    l: &Level<T>,
-    gs: &SymField<T>,
-    q: impl Fn(&SurfaceKinematics<T>) -> T,
-) -> f64 {
-    let mut s = 0.0;
-    for &idx in l.band.cells() {
-        let n = cell_vector(&l.normal, idx);
-        let k = surface_kinematics(&gs.get(idx), &n);
-        if k.c2 > T::zero() {
-            s += (l.delta.data[idx] * q(&k) / k.c2.sqrt()).f64();
-        }
-    }
-    s * grid.cell_volume().f64()
 }
 
 /// `phi` range where the geometry (normals, `delta`) is evaluated: wide enough for the
@@ -110,27 +87,17 @@ impl<T: Real> Level<T> {
 }
 
 impl<T: Real> Capsule<T> {
+    /// A capsule of `shape` carrying the fields of `needs`.
     pub(crate) fn new(
         grid: &Grid<T>,
         shape: &dyn Shape,
         settings: &Settings<T>,
-        law: Option<&SharedLaw<T>>,
-        eb: Option<T>,
+        needs: Needs,
     ) -> Result<Self> {
         let (smoothing, epsilon) = (&settings.smoothing, settings.epsilon);
-        let bending = eb.is_some();
-        if bending
-            && settings.bending_form == BendingForm::EnergyGradient
-            && !matches!(settings.normals, NormalScheme::Atanh2 | NormalScheme::Atanh4)
-        {
-            return Err(crate::Error::invalid(
-                "normals",
-                settings.normals.name(),
-                "atanh2 or atanh4 with bending_form EnergyGradient",
-            ));
-        }
-        let mut cur = Level::zeros(grid, bending, epsilon)?;
-        if bending {
+        let curvature = needs.curvature;
+        let mut cur = Level::zeros(grid, curvature, epsilon)?;
+        if curvature {
             let (phi, kappa) = smoothed_fields(grid, shape, smoothing)?;
             cur.phi = phi;
             cur.kappa = Some(kappa);
@@ -139,46 +106,59 @@ impl<T: Real> Capsule<T> {
         }
         let mut geometry = Geometry::new(grid, settings.normals);
         cur.derive(grid, &mut geometry)?;
-        let next = Level::zeros(grid, bending, epsilon)?;
-        let gs = law.map(|_| {
+        let next = Level::zeros(grid, curvature, epsilon)?;
+        let gs = needs.strain.then(|| {
             // The reference state: G_s = P (2.22) everywhere the normal is defined.
             let mut gs = SymField::zeros(grid);
             fill_projector(grid, &cur.normal, &mut gs);
             gs
         });
+        let strain = match needs.strain {
+            true => Some(
+                StrainTransport::new(grid)?
+                    .with_advection(settings.strain_advection)
+                    .with_tangent_frame(settings.gs_transport.tangent_frame()),
+            ),
+            false => None,
+        };
         let mut cap = Capsule {
             cur,
             next,
             gs,
-            advector: Advector::new(grid, settings.advection, bending)?,
+            advector: Advector::new(grid, settings.advection, curvature)?,
             geometry,
-            elastic: law.map(|l| InPlaneElasticity::new(grid, l.clone())),
-            strain: match law {
-                Some(_) => Some(
-                    StrainTransport::new(grid)?
-                        .with_advection(settings.strain_advection)
-                        .with_tangent_frame(settings.tangent_frame_gs),
-                ),
-                None => None,
-            },
-            bending: match eb {
-                Some(eb) => Some(Bending::new(grid, eb)?),
-                None => None,
-            },
-            bending_form: settings.bending_form,
+            strain,
             saved: (None, Vec::new(), Vec::new()),
             reference_target: None,
         };
-        if settings.conserve_reference_area {
+        if settings.reference_area == ReferenceArea::Conserved {
             cap.reference_target = cap.reference_area(grid);
         }
         Ok(cap)
     }
 
+    /// The membrane at the current level.
+    pub(crate) fn view(&self, level: LevelChoice) -> MembraneView<'_, T> {
+        let l = match level {
+            LevelChoice::Current => &self.cur,
+            LevelChoice::Next => &self.next,
+        };
+        MembraneView {
+            phi: &l.phi,
+            delta: &l.delta,
+            normal: &l.normal,
+            band: &l.band,
+            curvature: l.kappa.as_ref(),
+            gs: self.gs.as_ref(),
+        }
+    }
+
     /// The reference area `sum delta / j_s h^3` of the current level (`None` without
     /// elasticity).
     pub(crate) fn reference_area(&self, grid: &Grid<T>) -> Option<f64> {
-        self.gs.as_ref().map(|gs| reference_integral(grid, &self.cur, gs, |_| T::one()))
+        self.gs
+            .as_ref()
+            .map(|gs| reference_integral(grid, &self.view(LevelChoice::Current), gs, |_| T::one()))
     }
 
     /// Makes the current reference area the one to conserve (where one is conserved).
@@ -206,9 +186,8 @@ impl<T: Real> Capsule<T> {
         }
     }
 
-    /// Steps 1-3 of the time step for this capsule: advects `phi` (and `kappa_R tilde`) with
-    /// `v^n` into the next level, derives its geometry and band, and evaluates the membrane
-    /// stress and bending force there (`G_s^n`, `n^{n+1}`, `delta^{n+1}`). The state is not
+    /// Steps 1-2 of the time step for this capsule: advects `phi` (and `kappa_R tilde`) with
+    /// `v^n` into the next level and derives its geometry and band there. The state is not
     /// touched; on error call [`discard`](Self::discard).
     pub(crate) fn prepare(&mut self, grid: &Grid<T>, v: &VectorField<T>, dt: T) -> Result<usize> {
         self.saved.0 = None;
@@ -222,22 +201,6 @@ impl<T: Real> Capsule<T> {
         self.next.copy_from(&self.cur);
         let info = self.advector.step(grid, v, dt, &mut self.next.phi, self.next.kappa.as_mut())?;
         self.next.derive(grid, &mut self.geometry)?;
-        let next = &self.next;
-        if let (Some(e), Some(gs)) = (self.elastic.as_mut(), self.gs.as_ref()) {
-            e.evaluate(grid, &next.band, gs, &next.normal, &next.delta, dt)?;
-        }
-        if let (Some(b), Some(kappa)) = (self.bending.as_mut(), next.kappa.as_ref()) {
-            match self.bending_form {
-                BendingForm::EnergyGradient => b.evaluate_variational(
-                    grid,
-                    &next.band,
-                    &next.phi,
-                    kappa,
-                    self.geometry.scheme() == NormalScheme::Atanh4,
-                )?,
-                _ => b.evaluate(grid, &next.band, &next.normal, &next.delta, kappa)?,
-            }
-        }
         Ok(info.profile_cells)
     }
 

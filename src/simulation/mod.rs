@@ -60,28 +60,31 @@
 //! ```
 
 mod capsule;
-mod forces;
+pub mod effect;
+pub mod effects;
+pub mod observer;
 mod output;
 mod scene;
 pub mod stability;
 
-pub use scene::{MembraneCoupling, Phase, Scene, Settings, SharedLaw, SurfaceForceFn};
+pub use effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
+pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
+pub use observer::{Observer, RunSummary};
+pub use scene::{GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings};
 
 use crate::diagnostics::{
     DissipationForm, EnergyState, StepIntegrals, body_force_power, kinetic_energy, viscous_dissipation,
 };
 use crate::error::positive;
-use crate::fluid::{BodyForce, Coefficient, Forcing, ImplicitTerm, Materials};
+use crate::fluid::{Coefficient, Materials};
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::membrane::Band;
-use crate::membrane::SurfaceLaw;
-use crate::membrane::stress::SurfaceKinematics;
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
-use capsule::{Capsule, reference_integral};
-use forces::{SumForcing, SumImplicit, SurfaceForcing};
-use std::sync::Arc;
+use capsule::Capsule;
+use effect::LevelChoice;
+use effects::{EffectForcing, EffectImplicit};
 
 pub use crate::fluid::FlowStepper;
 
@@ -95,6 +98,42 @@ pub struct StepReport {
     pub profile_cells: usize,
     /// Cells of the membrane bands after the step (all capsules).
     pub band_cells: usize,
+    /// What the caller should know about this step (the library never prints).
+    pub warning: Option<StepWarning>,
+}
+
+/// A warning carried by a [`StepReport`]: the step was taken, but its result may not be
+/// trustworthy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum StepWarning {
+    /// `dt` is above the stability limit of an effect ([`Simulation::membrane_dt_limit`], see
+    /// [`stability`]): the run may blow up.
+    DtAboveLimit {
+        /// The step's `dt`.
+        dt: f64,
+        /// The smallest limit of the scene's effects.
+        limit: f64,
+    },
+}
+
+impl std::fmt::Display for StepWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StepWarning::DtAboveLimit { dt, limit } => write!(
+                f,
+                "dt = {dt:.3e} exceeds the membrane stability limit {limit:.3e} \
+                 (see eulermembrane::simulation::stability); the run may blow up"
+            ),
+        }
+    }
+}
+
+/// A step computed by [`Simulation::prepare`] and not yet committed.
+struct Pending {
+    report: StepReport,
+    dissipated: f64,
+    work: f64,
 }
 
 /// A coupled fluid-membrane simulation built from a [`Scene`]: owns the flow, the capsules'
@@ -105,54 +144,53 @@ pub struct Simulation<T: Real> {
     capsules: Vec<Capsule<T>>,
     outside: Phase<T>,
     inside: Phase<T>,
-    law: Option<SharedLaw<T>>,
-    body_force: BodyForce<T>,
-    surface_force: Option<Arc<SurfaceForceFn>>,
+    effects: Vec<Box<dyn Effect<T>>>,
     settings: Settings<T>,
-    /// `v^n` kept across the flow step for the `G_s` transport (only with elasticity).
+    /// `v^n` kept across the flow step for the `G_s` transport (only with `G_s`).
     v_old: Option<VectorField<T>>,
     /// Scratch of [`Simulation::energy`]: the external force on the faces.
     force: Option<VectorField<T>>,
     /// The step integrals of [`Simulation::track_energy`] and the midpoint velocity (scratch).
     ledger: Option<(StepIntegrals, VectorField<T>)>,
-    /// Whether the `dt` warning of [`stability`] was printed.
-    dt_warned: bool,
+    /// The prepared step, if any.
+    pending: Option<Pending>,
+    /// How many capsules hold a prepared level (rolled back by [`Simulation::discard`]).
+    prepared_capsules: usize,
 }
 
 impl<T: Real> Simulation<T> {
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_scene(
         grid: Grid<T>,
         outside: Phase<T>,
         inside: Phase<T>,
         shapes: Vec<Box<dyn crate::interface::shapes::Shape + Send>>,
-        law: Option<SharedLaw<T>>,
-        eb: Option<T>,
-        body_force: [T; 3],
-        surface_force: Option<Arc<SurfaceForceFn>>,
+        effects: Vec<Box<dyn Effect<T>>>,
         settings: Settings<T>,
     ) -> Result<Self> {
         let mut capsules = Vec::with_capacity(shapes.len());
         for (c, shape) in shapes.iter().enumerate() {
-            let cap = Capsule::new(&grid, shape.as_ref(), &settings, law.as_ref(), eb)?;
+            let needs = effects.iter().filter(|e| e.acts_on(c)).fold(Needs::NONE, |n, e| {
+                let m = e.needs();
+                Needs { strain: n.strain || m.strain, curvature: n.curvature || m.curvature }
+            });
+            let cap = Capsule::new(&grid, shape.as_ref(), &settings, needs)?;
             check_wall_distance(&grid, &cap.cur.phi, settings.smoothing.beta, c)?;
             capsules.push(cap);
         }
         let flow = FlowStepper::new(&grid, Materials::uniform(outside.rho, outside.mu)?, settings.flow)?;
         let mut sim = Simulation {
-            v_old: law.as_ref().map(|_| VectorField::zeros(&grid)),
+            v_old: capsules.iter().any(|c| c.gs.is_some()).then(|| VectorField::zeros(&grid)),
             grid,
             flow,
             capsules,
             outside,
             inside,
-            law,
-            body_force: BodyForce::new(body_force)?,
-            surface_force,
+            effects,
             settings,
             force: None,
             ledger: None,
-            dt_warned: false,
+            pending: None,
+            prepared_capsules: 0,
         };
         sim.set_materials()?;
         Ok(sim)
@@ -181,132 +219,160 @@ impl<T: Real> Simulation<T> {
 
     /// Recomputes the variable material fields in place from `phi` (current or next level).
     fn update_materials(&mut self, next: bool) {
-        let (a, b) = (self.inside, self.outside);
-        let caps = &self.capsules;
-        let m = self.flow.materials_mut();
-        for (coef, (xa, xb)) in [(&mut m.rho, (a.rho, b.rho)), (&mut m.mu, (a.mu, b.mu))] {
-            if let Coefficient::Field(f) = coef {
-                f.data.iter_mut().enumerate().for_each(|(idx, out)| {
-                    let w = caps
-                        .iter()
-                        .map(|c| if next { c.next.phi.data[idx] } else { c.cur.phi.data[idx] })
-                        .fold(T::zero(), |s, p| s + p)
-                        .max(T::zero())
-                        .min(T::one());
-                    *out = w * xa + (T::one() - w) * xb;
-                });
-                f.fill_ghosts(&self.grid);
-            }
-        }
+        update_materials(&self.grid, self.inside, self.outside, &self.capsules, &mut self.flow, next);
     }
 
-    /// Advances one time step of size `dt` (see the [module docs](self) for its parts).
+    /// Advances one time step of size `dt` (see the [module docs](self) for its parts):
+    /// [`prepare`](Self::prepare), then [`commit`](Self::commit).
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] naming `dt` unless it is finite and `> 0`. A step that
     /// fails returns [`Error::Step`] with the step number, the time and `dt`, wrapping the
     /// cause: a solver that does not converge ([`Error::NoConvergence`]); a non-finite value in
     /// any field ([`Error::NonFinite`] with the field and cell); a membrane band reaching a wall
-    /// ([`Error::Unsupported`]). The state is then exactly as before the call.
+    /// ([`Error::Unsupported`]); an effect that fails. The state is then exactly as before the
+    /// call.
     pub fn step(&mut self, dt: T) -> Result<StepReport> {
-        positive("dt", dt)?;
-        self.warn_if_above_limit(dt);
-        let (step, time) = (self.steps() + 1, self.time().f64());
-        self.advance(dt).map_err(|e| Error::Step { step, time, dt: dt.f64(), source: Box::new(e) })
+        self.prepare(dt)?;
+        self.commit()
     }
 
-    /// The body of [`step`](Self::step), for a valid `dt`.
-    fn advance(&mut self, dt: T) -> Result<StepReport> {
-        let grid = &self.grid.clone();
-        let mut profile_cells = 0;
-        // 1-3: per capsule, beside the state.
-        for c in 0..self.capsules.len() {
-            match self.capsules[c].prepare(grid, self.flow.velocity(), dt) {
-                Ok(n) => profile_cells += n,
-                Err(e) => {
-                    for cap in &mut self.capsules[..=c] {
-                        cap.discard();
-                    }
-                    return Err(e);
-                }
+    /// Computes the step `dt` beside the state, which it does not change (the first phase of
+    /// [`step`](Self::step), for custom drivers: inspect the proposal with
+    /// [`proposed_velocity`](Self::proposed_velocity) and the report, then
+    /// [`commit`](Self::commit) it or [`discard`](Self::discard) it and try another `dt`). A
+    /// step prepared before is discarded first.
+    ///
+    /// # Errors
+    /// As [`step`](Self::step); nothing is then prepared.
+    pub fn prepare(&mut self, dt: T) -> Result<StepReport> {
+        positive("dt", dt)?;
+        self.discard();
+        let (step, time) = (self.steps() + 1, self.time().f64());
+        match self.prepare_step(dt) {
+            Ok(report) => Ok(report),
+            Err(e) => {
+                self.discard();
+                Err(Error::Step { step, time, dt: dt.f64(), source: Box::new(e) })
             }
         }
-        // 4-5: materials and the flow step.
-        self.update_materials(true);
-        let flow_info = (|| {
-            let caps = &self.capsules;
-            let mut implicit = Vec::new();
-            let mut forcings: Vec<&dyn Forcing<T>> = vec![&self.body_force];
-            let mut elastic = Vec::new();
-            let mut bending = Vec::new();
-            for cap in caps {
-                if let Some(e) = &cap.elastic {
-                    if self.settings.coupling == MembraneCoupling::Explicit {
-                        elastic.push(e.explicit_forcing(&cap.next.band)?);
-                    } else {
-                        elastic.push(e.forcing(&cap.next.band)?);
-                        implicit.push(e.implicit(&cap.next.band)?);
-                    }
-                }
-                if let Some(b) = &cap.bending {
-                    bending.push(b.forcing(&cap.next.band)?);
-                }
-            }
-            let surface = self
-                .surface_force
-                .as_deref()
-                .map(|f| SurfaceForcing { f, levels: caps.iter().map(|c| &c.next).collect() });
-            forcings.extend(elastic.iter().map(|f| f as &dyn Forcing<T>));
-            forcings.extend(bending.iter().map(|f| f as &dyn Forcing<T>));
-            if let Some(s) = &surface {
-                forcings.push(s);
-            }
-            let implicit = SumImplicit(implicit);
-            let extra = (!implicit.0.is_empty()).then_some(&implicit as &dyn ImplicitTerm<T>);
-            self.flow.prepare(dt, &SumForcing(forcings), extra)
-        })();
-        let flow_info = match flow_info {
-            Ok(i) => i,
-            Err(e) => return Err(self.abandon(e)),
+    }
+
+    /// Makes the prepared step the state and returns its report.
+    ///
+    /// # Errors
+    /// [`Error::Unsupported`] when no step is prepared; the state is unchanged.
+    pub fn commit(&mut self) -> Result<StepReport> {
+        let Some(p) = self.pending.take() else {
+            return Err(Error::Unsupported {
+                component: "Simulation::commit",
+                detail: "no prepared step: call prepare first (a step is committed once)".into(),
+            });
         };
-        // 6: G_s^{n+1}, beside the state.
+        self.commit_step(p)
+    }
+
+    /// Forgets the prepared step, if any: the state is as before [`prepare`](Self::prepare).
+    pub fn discard(&mut self) {
+        self.pending = None;
+        self.flow.discard();
+        if self.prepared_capsules > 0 {
+            for cap in &mut self.capsules[..self.prepared_capsules] {
+                cap.discard();
+            }
+            self.prepared_capsules = 0;
+            self.update_materials(false);
+        }
+    }
+
+    /// The velocity `v^{n+1}` of the prepared step (`None` when none is prepared).
+    pub fn proposed_velocity(&self) -> Option<&VectorField<T>> {
+        self.pending.as_ref().and_then(|_| self.flow.proposed_velocity())
+    }
+
+    /// `phi^{n+1}` of capsule `c` in the prepared step (`None` when none is prepared).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule.
+    pub fn proposed_phi(&self, c: usize) -> Result<Option<&Field<T>>> {
+        let cap = self.capsule(c)?;
+        Ok(self.pending.as_ref().map(|_| &cap.next.phi))
+    }
+
+    /// The body of [`prepare`](Self::prepare), for a valid `dt`; on error the caller discards.
+    fn prepare_step(&mut self, dt: T) -> Result<StepReport> {
+        let grid = &self.grid;
+        let mut profile_cells = 0;
+        // 1-2: per capsule, beside the state.
         for c in 0..self.capsules.len() {
-            let cap = &mut self.capsules[c];
+            self.prepared_capsules = c + 1;
+            profile_cells += self.capsules[c].prepare(grid, self.flow.velocity(), dt)?;
+        }
+        // 3: the effects, at the new level with G_s^n.
+        let time = self.flow.time();
+        let state = StepState {
+            grid,
+            settings: &self.settings,
+            time,
+            capsules: &self.capsules,
+            level: LevelChoice::Next,
+        };
+        for e in self.effects.iter_mut() {
+            e.prepare(&state, self.flow.velocity(), dt)?;
+        }
+        // 4-5: materials and the flow step.
+        update_materials(grid, self.inside, self.outside, &self.capsules, &mut self.flow, true);
+        let state = StepState {
+            grid,
+            settings: &self.settings,
+            time,
+            capsules: &self.capsules,
+            level: LevelChoice::Next,
+        };
+        let forcing = EffectForcing { effects: &self.effects, state: &state };
+        let implicit = EffectImplicit { effects: &self.effects, state: &state };
+        let extra = implicit.any().then_some(&implicit as &dyn crate::fluid::ImplicitTerm<T>);
+        let flow_info = self.flow.prepare(dt, &forcing, extra)?;
+        // 6: G_s^{n+1}, beside the state.
+        for cap in self.capsules.iter_mut() {
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
                 gs.fill_ghosts(grid);
-                let r = strain.prepare(
+                strain.prepare(
                     grid,
                     &cap.next.band,
                     dt,
                     self.flow.velocity(),
-                    self.flow.proposed_velocity(),
+                    self.flow.prepared_velocity(),
                     &cap.next.normal,
                     gs,
-                );
-                if let Err(e) = r {
-                    return Err(self.abandon(e));
-                }
+                )?;
             }
         }
         // The energy ledger, from the step's midpoint velocity.
-        let (dissipated, work) = match self.step_integrals(dt) {
-            Ok(i) => i,
-            Err(e) => return Err(self.abandon(e)),
-        };
-        // Commit.
+        let (dissipated, work) = self.step_integrals(dt)?;
+        let band_cells = self.capsules.iter().map(|c| c.next.band.len()).sum();
+        let limit = self.membrane_dt_limit();
+        let warning = (dt.f64() > limit).then_some(StepWarning::DtAboveLimit { dt: dt.f64(), limit });
+        let report = StepReport { flow: flow_info, profile_cells, band_cells, warning };
+        self.pending = Some(Pending { report, dissipated, work });
+        Ok(report)
+    }
+
+    /// Makes the prepared step `p` the state.
+    fn commit_step(&mut self, p: Pending) -> Result<StepReport> {
+        let grid = &self.grid;
         if let Some((l, _)) = self.ledger.as_mut() {
-            l.dissipated += dissipated;
-            l.work += work;
+            l.dissipated += p.dissipated;
+            l.work += p.work;
         }
         if let Some(v_old) = self.v_old.as_mut() {
             v_old.copy_from(self.flow.velocity());
         }
-        self.flow.commit(dt);
-        let mut band_cells = 0;
+        self.flow.commit()?;
         for cap in &mut self.capsules {
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
-                strain.commit(&cap.next.band, &cap.next.normal, gs);
-                if self.settings.tangential_gs {
+                strain.commit(&cap.next.band, &cap.next.normal, gs)?;
+                if self.settings.gs_transport.projects() {
                     let n = &cap.next.normal;
                     for &idx in cap.next.band.cells() {
                         let p = projector(&cell_vector(n, idx));
@@ -316,18 +382,19 @@ impl<T: Real> Simulation<T> {
             }
             cap.commit();
             cap.restore_reference_area(grid);
-            band_cells += cap.cur.band.len();
         }
-        Ok(StepReport { flow: flow_info, profile_cells, band_cells })
+        self.prepared_capsules = 0;
+        Ok(p.report)
     }
 
     /// `dt Phi(v^{n+1/2})` and `dt f^n . v^{n+1/2}` of the prepared step (see
-    /// [`StepIntegrals`]; zeros without a ledger, nothing computed), with the materials and capsule levels of step `n + 1` and the external
-    /// forces at `t^n`, as the flow step used them.
+    /// [`StepIntegrals`]; zeros without a ledger, nothing computed), with the materials and
+    /// capsule levels of step `n + 1` and the external forces at `t^n`, as the flow step used
+    /// them.
     fn step_integrals(&mut self, dt: T) -> Result<(f64, f64)> {
         let g = &self.grid;
         let Some((_, half)) = self.ledger.as_mut() else { return Ok((0.0, 0.0)) };
-        let (v0, v1) = (self.flow.velocity(), self.flow.proposed_velocity());
+        let (v0, v1) = (self.flow.velocity(), self.flow.prepared_velocity());
         for d in 0..3 {
             for ((h, &a), &b) in half.c[d].data.iter_mut().zip(&v0.c[d].data).zip(&v1.c[d].data) {
                 *h = T::lit(0.5) * (a + b);
@@ -336,17 +403,14 @@ impl<T: Real> Simulation<T> {
         let half = &*half;
         let m = self.flow.materials();
         let dissipation = viscous_dissipation(g, half, &m.mu, DissipationForm::Discrete)?;
-        let levels = self.capsules.iter().map(|c| &c.next).collect();
-        let power = external_power(
-            g,
-            &self.body_force,
-            self.surface_force.as_deref(),
-            levels,
-            self.flow.time(),
-            v0,
-            half,
-            &mut self.force,
-        )?;
+        let state = StepState {
+            grid: g,
+            settings: &self.settings,
+            time: self.flow.time(),
+            capsules: &self.capsules,
+            level: LevelChoice::Next,
+        };
+        let power = external_power(&self.effects, &state, v0, half, &mut self.force)?;
         Ok((dt.f64() * dissipation, dt.f64() * power))
     }
 
@@ -364,15 +428,6 @@ impl<T: Real> Simulation<T> {
             None => VectorField::zeros(&self.grid),
         };
         self.ledger = Some((StepIntegrals::default(), half));
-    }
-
-    /// Rolls back the prepared parts of a failed step and returns its error.
-    fn abandon(&mut self, e: Error) -> Error {
-        for cap in &mut self.capsules {
-            cap.discard();
-        }
-        self.update_materials(false);
-        e
     }
 
     /// The grid.
@@ -412,13 +467,17 @@ impl<T: Real> Simulation<T> {
     pub fn capsule_count(&self) -> usize {
         self.capsules.len()
     }
-    /// Whether the membranes have in-plane elasticity.
+    /// Whether any membrane carries `G_s` (some effect, e.g. [`Elasticity`], needs it).
     pub fn has_elasticity(&self) -> bool {
-        self.law.is_some()
+        self.capsules.iter().any(|c| c.gs.is_some())
     }
-    /// Whether the membranes bend.
+    /// Whether any membrane carries `kappa_R tilde` (some effect, e.g. [`Bending`], needs it).
     pub fn has_bending(&self) -> bool {
-        self.capsules.first().is_some_and(|c| c.bending.is_some())
+        self.capsules.iter().any(|c| c.cur.kappa.is_some())
+    }
+    /// The scene's effects, in the order they were added.
+    pub fn effects(&self) -> &[Box<dyn Effect<T>>] {
+        &self.effects
     }
 
     fn capsule(&self, c: usize) -> Result<&Capsule<T>> {
@@ -516,39 +575,60 @@ impl<T: Real> Simulation<T> {
         Ok(cap.reference_area(&self.grid))
     }
 
-    /// Elastic energy `sum delta W_s / j_s h^3` over the membrane bands (zero without
-    /// elasticity): `W_s` is an energy per unit *reference* area ((2.4) divides by
-    /// `j_s = sqrt(c2)`), `delta h^3` an element of *current* area, `dA_R = dA / j_s`.
+    /// The energy stored by the membranes: the sum of [`Effect::stored_energy`] over the
+    /// scene's effects; for [`Elasticity`] the elastic energy `sum delta W_s / j_s h^3` over the
+    /// bands (zero without elasticity): `W_s` is an energy per unit *reference* area ((2.4)
+    /// divides by `j_s = sqrt(c2)`), `delta h^3` an element of *current* area,
+    /// `dA_R = dA / j_s`.
     pub fn elastic_energy(&self) -> f64 {
-        let Some(law) = &self.law else { return 0.0 };
-        let energy = |k: &SurfaceKinematics<T>| law.energy(k.c1, k.c2);
-        self.capsules
+        let state = self.state(LevelChoice::Current);
+        self.effects
             .iter()
-            .filter_map(|cap| Some(reference_integral(&self.grid, &cap.cur, cap.gs.as_ref()?, energy)))
+            .filter(|e| e.energy_role() == EnergyRole::Stored)
+            .map(|e| e.stored_energy(&state))
             .sum()
     }
 
+    /// What the effects see of the scene.
+    fn setup(&self) -> Setup<'_, T> {
+        Setup {
+            grid: &self.grid,
+            settings: &self.settings,
+            outside: self.outside,
+            inside: self.inside,
+            capsules: self.capsules.len(),
+        }
+    }
+
+    /// The state the effects see at the current time level.
+    fn state(&self, level: LevelChoice) -> StepState<'_, T> {
+        StepState {
+            grid: &self.grid,
+            settings: &self.settings,
+            time: self.flow.time(),
+            capsules: &self.capsules,
+            level,
+        }
+    }
+
     /// The terms of the energy budget of Sec. 3.2 at the current time: kinetic and elastic
-    /// energy, viscous dissipation rate, the power of the body and surface forces and, after
-    /// [`track_energy`](Self::track_energy), their step integrals (feed them to an
-    /// [`EnergyBudget`](crate::diagnostics::EnergyBudget)).
+    /// energy, viscous dissipation rate, the power of the external forces ([`EnergyRole::Work`]
+    /// effects) and, after [`track_energy`](Self::track_energy), their step integrals (feed them
+    /// to an [`EnergyBudget`](crate::diagnostics::EnergyBudget)).
     pub fn energy(&mut self) -> Result<EnergyState> {
         let g = &self.grid;
         let m = self.flow.materials();
         let v = self.flow.velocity();
         let kinetic = kinetic_energy(g, v, &m.rho)?;
         let dissipation_rate = viscous_dissipation(g, v, &m.mu, DissipationForm::Discrete)?;
-        let levels = self.capsules.iter().map(|c| &c.cur).collect();
-        let body_power = external_power(
-            g,
-            &self.body_force,
-            self.surface_force.as_deref(),
-            levels,
-            self.flow.time(),
-            v,
-            v,
-            &mut self.force,
-        )?;
+        let state = StepState {
+            grid: g,
+            settings: &self.settings,
+            time: self.flow.time(),
+            capsules: &self.capsules,
+            level: LevelChoice::Current,
+        };
+        let body_power = external_power(&self.effects, &state, v, v, &mut self.force)?;
         let elastic = self.elastic_energy();
         let integrals = self.ledger.as_ref().map(|(i, _)| *i);
         Ok(EnergyState {
@@ -562,30 +642,56 @@ impl<T: Real> Simulation<T> {
     }
 }
 
-/// The power `sum f . w dV` of the body force and the surface force at `time` (with the
-/// capsule `levels` and the velocity `v` the forces see), `f` assembled in `scratch`; zero
-/// without either force.
-#[allow(clippy::too_many_arguments)]
+/// Recomputes the variable material fields of `flow` in place from the mixture (2.25) of the
+/// capsules' `phi` (current or next level).
+fn update_materials<T: Real>(
+    grid: &Grid<T>,
+    inside: Phase<T>,
+    outside: Phase<T>,
+    caps: &[Capsule<T>],
+    flow: &mut FlowStepper<T>,
+    next: bool,
+) {
+    let (a, b) = (inside, outside);
+    let m = flow.materials_mut();
+    for (coef, (xa, xb)) in [(&mut m.rho, (a.rho, b.rho)), (&mut m.mu, (a.mu, b.mu))] {
+        if let Coefficient::Field(f) = coef {
+            f.data.iter_mut().enumerate().for_each(|(idx, out)| {
+                let w = caps
+                    .iter()
+                    .map(|c| if next { c.next.phi.data[idx] } else { c.cur.phi.data[idx] })
+                    .fold(T::zero(), |s, p| s + p)
+                    .max(T::zero())
+                    .min(T::one());
+                *out = w * xa + (T::one() - w) * xb;
+            });
+            f.fill_ghosts(grid);
+        }
+    }
+}
+
+/// The power `sum f . w dV` of the external forces (the [`EnergyRole::Work`] effects that are
+/// active) at the state `state` with the velocity `v` the forces see, `f` assembled in
+/// `scratch`; zero without any.
 fn external_power<T: Real>(
-    g: &Grid<T>,
-    body: &BodyForce<T>,
-    surface: Option<&SurfaceForceFn>,
-    levels: Vec<&capsule::Level<T>>,
-    time: T,
+    effects: &[Box<dyn Effect<T>>],
+    state: &StepState<'_, T>,
     v: &VectorField<T>,
     w: &VectorField<T>,
     scratch: &mut Option<VectorField<T>>,
 ) -> Result<f64> {
-    if !body.is_active() && surface.is_none() {
+    let mut work =
+        effects.iter().filter(|e| e.energy_role() == EnergyRole::Work && e.is_active(state)).peekable();
+    if work.peek().is_none() {
         return Ok(0.0);
     }
+    let g = state.grid;
     let f = scratch.get_or_insert_with(|| VectorField::zeros(g));
     for c in f.c.iter_mut() {
         c.fill(T::zero());
     }
-    body.add(g, time, v, f);
-    if let Some(sf) = surface {
-        SurfaceForcing { f: sf, levels }.add(g, time, v, f);
+    for e in work {
+        e.add_force(state, v, f)?;
     }
     body_force_power(g, w, f)
 }

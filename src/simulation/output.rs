@@ -11,6 +11,23 @@ use crate::{Error, Result};
 use std::path::Path;
 
 impl<T: Real> Simulation<T> {
+    /// The scene's physics in one line: the phases and every effect's
+    /// [`describe`](super::Effect::describe), as checkpoints record it.
+    pub fn physics(&self) -> String {
+        let mut s = format!(
+            "outside rho={:e} mu={:e}; inside rho={:e} mu={:e}",
+            self.outside.rho.f64(),
+            self.outside.mu.f64(),
+            self.inside.rho.f64(),
+            self.inside.mu.f64()
+        );
+        for e in &self.effects {
+            s.push_str("; ");
+            s.push_str(&e.describe());
+        }
+        s
+    }
+
     /// Writes a ParaView snapshot (VTK XML image data, raw appended binary): `phi` (all
     /// capsules together, and per capsule when there are several), the velocity at cell centres,
     /// the pressure, `delta`, and with elasticity the principal tensions `t1`, `t2` and the area
@@ -34,10 +51,13 @@ impl<T: Real> Simulation<T> {
         }
         w.vector("velocity", self.flow.velocity()).scalar("pressure", self.flow.pressure());
         w.scalar_fn("delta", total(|l, idx| l.delta.data[idx]));
-        if let Some(law) = &self.law {
+        // The in-plane law of each capsule (the first effect that gives one).
+        let laws: Vec<_> =
+            (0..caps.len()).map(|c| self.effects.iter().find_map(|e| e.surface_law(c))).collect();
+        if laws.iter().any(|l| l.is_some()) {
             let inv = |idx: usize| {
-                self.capsules.iter().find_map(|cap| {
-                    let (gs, l) = (cap.gs.as_ref()?, &cap.cur);
+                self.capsules.iter().zip(&laws).find_map(|(cap, law)| {
+                    let (gs, l, law) = (cap.gs.as_ref()?, &cap.cur, (*law)?);
                     l.band.contains(idx).then(|| {
                         let n = cell_vector(&l.normal, idx);
                         tension_invariants(law, &gs.get(idx), &n)
@@ -61,6 +81,7 @@ impl<T: Real> Simulation<T> {
     pub fn checkpoint(&self, path: impl AsRef<Path>) -> Result<()> {
         let mut w = CheckpointWriter::new();
         self.flow.checkpoint(&mut w, "flow.");
+        w.text("physics", &self.physics());
         w.number("capsules", self.capsules.len() as f64);
         for (c, cap) in self.capsules.iter().enumerate() {
             let p = format!("capsule{c}.");
@@ -98,6 +119,14 @@ impl<T: Real> Simulation<T> {
     /// checkpoint of another grid or scene.
     pub fn restore(&mut self, path: impl AsRef<Path>) -> Result<()> {
         let r = CheckpointReader::open(path)?;
+        let physics = r.text("physics")?;
+        if physics != self.physics() {
+            return Err(Error::invalid(
+                "checkpoint physics",
+                physics,
+                "the physics of the scene it is restored into (Simulation::physics)",
+            ));
+        }
         let count = r.number("capsules")?;
         if count != self.capsules.len() as f64 {
             return Err(Error::invalid("checkpoint capsules", count, "the capsule count of this scene"));

@@ -3,14 +3,16 @@
 //! what its effects need (see the [module docs](super)).
 
 use super::Simulation;
+use super::effect::{Effect, Setup};
+use super::effects::{Bending, Elasticity, SurfaceLoad};
 use crate::error::positive;
+use crate::fluid::BodyForce;
 use crate::fluid::FlowConfig;
 use crate::grid::Grid;
 use crate::interface::shapes::{Shape, Smoothing};
 use crate::interface::{AdvectionParams, NormalScheme};
 use crate::membrane::{BendingForm, StrainAdvection, SurfaceLaw};
 use crate::{Error, Real, Result};
-use std::sync::Arc;
 
 /// Density `rho` and dynamic viscosity `mu` of one fluid phase.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -27,38 +29,6 @@ impl<T: Real> Phase<T> {
         positive("rho", rho)?;
         positive("mu", mu)?;
         Ok(Phase { rho, mu })
-    }
-}
-
-/// A surface force density per unit area `f(x, t)` (position, time), applied to every capsule
-/// as the volume force `delta f` (2.26), e.g. the paper's squashing force
-/// `F_b = -delta sgn(z - 0.25) gamma e_z` of Sec. 3.2.
-pub type SurfaceForceFn = dyn Fn([f64; 3], f64) -> [f64; 3] + Send + Sync;
-
-/// A membrane law shared by the capsules of a scene (one law object, one evaluation state per
-/// capsule).
-#[derive(Clone)]
-pub struct SharedLaw<T>(pub(crate) Arc<dyn SurfaceLaw<T>>);
-
-impl<T: Real> SurfaceLaw<T> for SharedLaw<T> {
-    fn name(&self) -> &str {
-        self.0.name()
-    }
-    #[inline]
-    fn energy(&self, c1: T, c2: T) -> T {
-        self.0.energy(c1, c2)
-    }
-    #[inline]
-    fn gradient(&self, c1: T, c2: T) -> [T; 2] {
-        self.0.gradient(c1, c2)
-    }
-    #[inline]
-    fn hessian(&self, c1: T, c2: T) -> [T; 3] {
-        self.0.hessian(c1, c2)
-    }
-    #[inline]
-    fn derivatives(&self, c1: T, c2: T) -> ([T; 2], [T; 3]) {
-        self.0.derivatives(c1, c2)
     }
 }
 
@@ -81,23 +51,11 @@ pub struct Settings<T> {
     /// How the in-plane membrane stress enters the predictor. Default
     /// [`MembraneCoupling::QuasiImplicit`] (2.32)-(2.35).
     pub coupling: MembraneCoupling,
-    /// Projects `G_s` onto the tangent plane, `G_s <- P G_s P` with the new normals, on the
-    /// band after each transport step (2.40). In the continuum `G_s` stays tangential; the
-    /// discrete transport lets normal components grow, which feed the in-plane block through
-    /// the velocity gradient. Not in the paper. Default `false`.
-    pub tangential_gs: bool,
-    /// Transports `G_s` in the tangent frame ([`StrainTransport::with_tangent_frame`]): each
-    /// stencil value of the advection (2.40) is turned into the cell's tangent plane, and the
-    /// stretching term leaves out that turn of the frame along the path, so that mixing
-    /// neighbours of different tangent planes adds no normal part to `G_s` (other sources of
-    /// it remain: combine with [`tangential_gs`](Self::tangential_gs), see
-    /// `docs/validation.md`). Not in the paper. Default `false`.
-    ///
-    /// [`StrainTransport::with_tangent_frame`]: crate::membrane::StrainTransport::with_tangent_frame
-    pub tangent_frame_gs: bool,
-    /// Rescales `G_s` on each capsule's band after every step so that the membrane's reference
-    /// area `sum delta / j_s h^3` keeps its initial value. Not in the paper. Default `false`.
-    pub conserve_reference_area: bool,
+    /// How `G_s` is carried from step to step. Default [`GsTransport::Paper`] (2.40).
+    pub gs_transport: GsTransport,
+    /// Whether the membrane's reference area is left to the transport or held. Default
+    /// [`ReferenceArea::Transported`] (the paper's).
+    pub reference_area: ReferenceArea,
     /// Face reconstruction in the advection of `G_s` (2.40). Default
     /// [`StrainAdvection::Upwind3`] (the paper's); [`StrainAdvection::Upwind5`] is more accurate
     /// and less dissipative.
@@ -121,6 +79,82 @@ pub enum MembraneCoupling {
     Explicit,
 }
 
+/// How the surface deformation tensor `G_s` is carried from step to step. Only
+/// [`Paper`](Self::Paper) is the paper's; the others repair the normal part of `G_s` that its
+/// discrete transport lets grow (in the continuum `G_s n = 0`, (2.18)); see
+/// `docs/architecture.md` ("Numerical options beyond the paper") for what each gains and costs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum GsTransport {
+    /// The transport (2.40) and the re-set to `P` off the band.
+    #[default]
+    Paper,
+    /// (2.40), then the projection `G_s <- P G_s P` with the new normals on the band.
+    Tangential,
+    /// (2.40) in the tangent frame ([`StrainTransport::with_tangent_frame`]): each stencil
+    /// value is turned into the cell's tangent plane, and the stretching term leaves out that
+    /// turn of the frame along the path.
+    ///
+    /// [`StrainTransport::with_tangent_frame`]: crate::membrane::StrainTransport::with_tangent_frame
+    TangentFrame,
+    /// [`TangentFrame`](Self::TangentFrame), then the projection of
+    /// [`Tangential`](Self::Tangential).
+    TangentFrameTangential,
+}
+
+impl GsTransport {
+    /// Every transport, the default first.
+    pub const ALL: [GsTransport; 4] = [
+        GsTransport::Paper,
+        GsTransport::Tangential,
+        GsTransport::TangentFrame,
+        GsTransport::TangentFrameTangential,
+    ];
+
+    /// The short name used by the examples' `--gs-transport` flag and their RESULT lines:
+    /// `paper`, `tangential`, `frame`, `both`.
+    pub fn name(self) -> &'static str {
+        match self {
+            GsTransport::Paper => "paper",
+            GsTransport::Tangential => "tangential",
+            GsTransport::TangentFrame => "frame",
+            GsTransport::TangentFrameTangential => "both",
+        }
+    }
+
+    /// The transport of a [`name`](Self::name).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `gs_transport` for any other name.
+    pub fn from_name(s: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| Error::invalid("gs_transport", s, "paper, tangential, frame or both"))
+    }
+
+    /// Whether the advection works in the tangent frame.
+    pub fn tangent_frame(self) -> bool {
+        matches!(self, GsTransport::TangentFrame | GsTransport::TangentFrameTangential)
+    }
+
+    /// Whether `G_s` is projected onto the tangent plane after each step.
+    pub fn projects(self) -> bool {
+        matches!(self, GsTransport::Tangential | GsTransport::TangentFrameTangential)
+    }
+}
+
+/// Whether the membrane's reference (unstressed) area `sum delta / j_s h^3` is left to the
+/// transports of `G_s` and `phi` or held at its initial value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ReferenceArea {
+    /// Left to the transports (the paper's method); its drift measures their disagreement.
+    #[default]
+    Transported,
+    /// `G_s` on each capsule's band is rescaled after every step so that the reference area
+    /// keeps its initial value (or the one a pre-stretch left). Not in the paper.
+    Conserved,
+}
+
 impl<T: Real> Default for Settings<T> {
     fn default() -> Self {
         Settings {
@@ -130,9 +164,8 @@ impl<T: Real> Default for Settings<T> {
             epsilon: T::lit(0.01),
             smoothing: Smoothing::default(),
             coupling: MembraneCoupling::default(),
-            tangential_gs: false,
-            tangent_frame_gs: false,
-            conserve_reference_area: false,
+            gs_transport: GsTransport::default(),
+            reference_area: ReferenceArea::default(),
             strain_advection: StrainAdvection::default(),
             bending_form: BendingForm::Divergence,
         }
@@ -168,10 +201,7 @@ pub struct Scene<T: Real> {
     pub(crate) outside: Phase<T>,
     pub(crate) inside: Phase<T>,
     pub(crate) capsules: Vec<Box<dyn Shape + Send>>,
-    pub(crate) law: Option<SharedLaw<T>>,
-    pub(crate) eb: Option<T>,
-    pub(crate) body_force: [T; 3],
-    pub(crate) surface_force: Option<Arc<SurfaceForceFn>>,
+    pub(crate) effects: Vec<Box<dyn Effect<T>>>,
     pub(crate) settings: Settings<T>,
     pub(crate) errors: Vec<Error>,
 }
@@ -185,10 +215,7 @@ impl<T: Real> Scene<T> {
             outside: fluid,
             inside: fluid,
             capsules: Vec::new(),
-            law: None,
-            eb: None,
-            body_force: [T::zero(); 3],
-            surface_force: None,
+            effects: Vec::new(),
             settings: Settings::default(),
             errors: Vec::new(),
         }
@@ -207,38 +234,58 @@ impl<T: Real> Scene<T> {
         self
     }
 
-    /// In-plane elasticity of the membranes with the law `law` (e.g.
+    /// Adds an effect (see [`Effect`]): the paper's [`Elasticity`], [`Bending`],
+    /// [`SurfaceLoad`], a [`BodyForce`], or a user's own. A `Box<dyn Effect<T>>` chosen at run
+    /// time is an effect too. The explicit forces are summed in the order the effects were
+    /// added.
+    pub fn effect(mut self, effect: impl Effect<T> + 'static) -> Self {
+        self.effects.push(Box::new(effect));
+        self
+    }
+
+    /// In-plane elasticity of every membrane with the law `law` (e.g.
     /// [`NeoHookean`](crate::membrane::NeoHookean), [`Skalak`](crate::membrane::Skalak), or
-    /// any user [`SurfaceLaw`]).
-    pub fn elasticity(mut self, law: impl SurfaceLaw<T> + 'static) -> Self {
-        self.law = Some(SharedLaw(Arc::new(law)));
-        self
+    /// any user [`SurfaceLaw`]): [`effect`](Self::effect) with [`Elasticity::new`]. For a law
+    /// per capsule, add one [`Elasticity`] per law with [`Elasticity::only`].
+    pub fn elasticity(self, law: impl SurfaceLaw<T> + 'static) -> Self {
+        self.effect(Elasticity::new(law))
     }
 
-    /// Bending of the membranes with modulus `eb` (`E_b` of (2.8)).
+    /// Bending of every membrane with modulus `eb` (`E_b` of (2.8)): [`effect`](Self::effect)
+    /// with [`Bending::new`] (an invalid `eb` is reported by [`build`](Self::build)).
     pub fn bending(mut self, eb: T) -> Self {
-        match positive("eb", eb) {
-            Ok(_) => self.eb = Some(eb),
-            Err(e) => self.errors.push(e),
+        match Bending::new(eb) {
+            Ok(b) => self.effect(b),
+            Err(e) => {
+                self.errors.push(e);
+                self
+            }
         }
-        self
     }
 
-    /// A uniform body force density (force per unit volume), e.g. a pressure gradient.
+    /// A uniform body force density (force per unit volume), e.g. a pressure gradient:
+    /// [`effect`](Self::effect) with [`BodyForce::new`] (a non-finite component is reported by
+    /// [`build`](Self::build)).
     pub fn body_force(mut self, f: [T; 3]) -> Self {
         for (d, name) in ["body_force[0]", "body_force[1]", "body_force[2]"].into_iter().enumerate() {
             if let Err(e) = crate::error::finite(name, f[d]) {
                 self.errors.push(e);
+                return self;
             }
         }
-        self.body_force = f;
-        self
+        match BodyForce::new(f) {
+            Ok(b) => self.effect(b),
+            Err(e) => {
+                self.errors.push(e);
+                self
+            }
+        }
     }
 
-    /// A force per unit area `f(x, t)` on every membrane (see [`SurfaceForceFn`]).
-    pub fn surface_force(mut self, f: impl Fn([f64; 3], f64) -> [f64; 3] + Send + Sync + 'static) -> Self {
-        self.surface_force = Some(Arc::new(f));
-        self
+    /// A force per unit area `f(x, t)` on every membrane: [`effect`](Self::effect) with
+    /// [`SurfaceLoad::new`].
+    pub fn surface_force(self, f: impl Fn([f64; 3], f64) -> [f64; 3] + Send + Sync + 'static) -> Self {
+        self.effect(SurfaceLoad::new(f))
     }
 
     /// Numerical settings (replaces the defaults).
@@ -257,7 +304,7 @@ impl<T: Real> Scene<T> {
     /// # Errors
     /// [`Error::InvalidParameter`] naming the offending item: a non-positive modulus or
     /// material value, `epsilon` outside `(0, 1)`, a membrane effect or surface force without
-    /// any capsule, a capsule whose band (where `phi` is neither 0 nor 1) leaves the domain
+    /// any capsule (each effect's [`Effect::attach`] error), a capsule whose band (where `phi` is neither 0 nor 1) leaves the domain
     /// across a wall or comes within two band widths of it, a 2D capsule on a 3D grid or the
     /// reverse; and the errors of the solvers' constructors.
     pub fn build(self) -> Result<Simulation<T>> {
@@ -270,33 +317,16 @@ impl<T: Real> Scene<T> {
         if !(eps > T::zero() && eps < T::one()) {
             return Err(Error::invalid("epsilon", eps, "a number in (0, 1), e.g. 0.01"));
         }
-        if self.capsules.is_empty() {
-            let needs = if self.law.is_some() {
-                Some("elasticity")
-            } else if self.eb.is_some() {
-                Some("bending")
-            } else if self.surface_force.is_some() {
-                Some("surface_force")
-            } else {
-                None
-            };
-            if let Some(what) = needs {
-                return Err(Error::invalid(
-                    what,
-                    "a membrane effect in a scene without capsules",
-                    "at least one capsule (Scene::capsule) for membrane effects",
-                ));
-            }
-        }
-        if let Some(law) = &self.law {
-            let (mu_s, k) = crate::membrane::law::small_strain_moduli(law.0.as_ref());
-            if !(mu_s > T::zero() && k > T::zero()) {
-                return Err(Error::invalid(
-                    "elasticity",
-                    format!("law {} with small-strain moduli ({mu_s}, {k})", law.0.name()),
-                    "a law with positive shear and area-dilation moduli",
-                ));
-            }
+        let mut effects = self.effects;
+        let setup = Setup {
+            grid: &self.grid,
+            settings: &self.settings,
+            outside: self.outside,
+            inside: self.inside,
+            capsules: self.capsules.len(),
+        };
+        for e in effects.iter_mut() {
+            e.attach(&setup)?;
         }
         let dim = if self.grid.is_2d() { 2 } else { 3 };
         for (c, s) in self.capsules.iter().enumerate() {
@@ -308,16 +338,6 @@ impl<T: Real> Scene<T> {
                 ));
             }
         }
-        Simulation::from_scene(
-            self.grid,
-            self.outside,
-            self.inside,
-            self.capsules,
-            self.law,
-            self.eb,
-            self.body_force,
-            self.surface_force,
-            self.settings,
-        )
+        Simulation::from_scene(self.grid, self.outside, self.inside, self.capsules, effects, self.settings)
     }
 }

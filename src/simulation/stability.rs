@@ -24,7 +24,7 @@
 //!
 //! `mu` is the mean of the inner and outer viscosities, `h` the smallest spacing, `K` the
 //! area-dilation modulus of the law (the larger small-strain modulus, see
-//! [`small_strain_moduli`]; `K = E_s` for [`NeoHookean`](crate::membrane::NeoHookean)).
+//! [`small_strain_moduli`](crate::membrane::small_strain_moduli); `K = E_s` for [`NeoHookean`](crate::membrane::NeoHookean)).
 //! The constants keep a margin of 1.2–1.7 below the smallest measured limits.
 //!
 //! Two limits are not in this rule: advection (the shear cases of the suite fail near a CFL
@@ -33,12 +33,12 @@
 //! runs on coarse grids (the elastic energy of a tank-treading capsule grows steadily when the
 //! capsule radius is 3–4 cells, and the run eventually fails whatever `dt`): refine the grid.
 //!
-//! [`Simulation::step`] prints one warning to stderr the first time `dt` exceeds
-//! [`Simulation::membrane_dt_limit`].
+//! A step whose `dt` exceeds [`Simulation::membrane_dt_limit`] is taken, and its
+//! [`StepReport`](super::StepReport) carries a
+//! [`StepWarning::DtAboveLimit`](super::StepWarning::DtAboveLimit) (the library never prints).
 
-use super::{MembraneCoupling, Simulation};
+use super::{Effect, MembraneCoupling, Simulation};
 use crate::error::positive;
-use crate::membrane::law::small_strain_moduli;
 use crate::{Real, Result};
 
 /// `C` of the explicit in-plane rule `dt <= C mu h / K` (measured limits 18.2–23.6).
@@ -79,40 +79,14 @@ pub fn bending_dt_limit(mu: f64, h: f64, eb: f64) -> Result<f64> {
 }
 
 impl<T: Real> Simulation<T> {
-    /// The membrane time-step limit of this simulation: the smaller of
-    /// [`membrane_dt_limit`] (with elasticity) and [`bending_dt_limit`] (with bending), with
-    /// the mean of the two viscosities and the smallest spacing; infinite without membrane
-    /// effects.
+    /// The time-step limit of this simulation: the smallest [`Effect::dt_limit`] of its
+    /// effects ([`membrane_dt_limit`] for [`Elasticity`](super::Elasticity),
+    /// [`bending_dt_limit`] for [`Bending`](super::Bending), with the mean of the two
+    /// viscosities and the smallest spacing); infinite without a limiting effect. A step above
+    /// it carries [`StepWarning::DtAboveLimit`](super::StepWarning::DtAboveLimit) in its report.
     pub fn membrane_dt_limit(&self) -> f64 {
-        let mu = 0.5 * (self.inside.mu + self.outside.mu).f64();
-        let h = self.grid.h().iter().fold(f64::INFINITY, |m, x| m.min(x.f64()));
-        let mut limit = f64::INFINITY;
-        if let Some(law) = &self.law {
-            let (shear, area) = small_strain_moduli(law);
-            let k = shear.max(area).f64();
-            limit = limit.min(membrane_dt_limit(mu, h, k, self.settings.coupling).unwrap_or(f64::INFINITY));
-        }
-        if let Some(b) = self.capsules.first().and_then(|c| c.bending.as_ref()) {
-            limit = limit.min(bending_dt_limit(mu, h, b.eb().f64()).unwrap_or(f64::INFINITY));
-        }
-        limit
-    }
-
-    /// Prints one warning to stderr (once per simulation) when `dt` exceeds
-    /// [`Simulation::membrane_dt_limit`].
-    pub(super) fn warn_if_above_limit(&mut self, dt: T) {
-        if self.dt_warned {
-            return;
-        }
-        let limit = self.membrane_dt_limit();
-        if dt.f64() > limit {
-            self.dt_warned = true;
-            eprintln!(
-                "eulermembrane warning: dt = {:.3e} exceeds the membrane stability limit {limit:.3e} \
-                 (see eulermembrane::simulation::stability); the run may blow up",
-                dt.f64()
-            );
-        }
+        let setup = self.setup();
+        self.effects.iter().filter_map(|e| e.dt_limit(&setup)).fold(f64::INFINITY, f64::min)
     }
 }
 

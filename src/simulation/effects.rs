@@ -1,0 +1,513 @@
+//! The paper's effects: in-plane [`Elasticity`] (2.4)-(2.6) with the quasi-implicit coupling
+//! (2.32)-(2.35), [`Bending`] (2.16)-(2.17), a [`SurfaceLoad`] `delta f(x, t)` (2.26), and the
+//! uniform [`BodyForce`](crate::fluid::BodyForce). Each acts on every capsule or on the ones
+//! named with `only` (a mixed suspension: stiff and soft capsules, red cells with another law).
+
+use super::effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
+use super::scene::MembraneCoupling;
+use super::stability::{bending_dt_limit, membrane_dt_limit};
+use crate::error::positive;
+use crate::fluid::{BodyForce, Forcing, ImplicitTerm};
+use crate::grid::ops::cell_vector;
+use crate::grid::{Grid, SymField, VectorField};
+use crate::interface::NormalScheme;
+use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
+use crate::membrane::{BendingForm, BendingStress, InPlaneElasticity, SurfaceLaw, small_strain_moduli};
+use crate::{Error, Real, Result};
+use std::sync::Arc;
+
+/// A membrane law shared by the capsules an [`Elasticity`] acts on (one law object, one
+/// evaluation state per capsule).
+#[derive(Clone)]
+pub struct SharedLaw<T>(pub(crate) Arc<dyn SurfaceLaw<T>>);
+
+impl<T: Real> SurfaceLaw<T> for SharedLaw<T> {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    #[inline]
+    fn energy(&self, c1: T, c2: T) -> T {
+        self.0.energy(c1, c2)
+    }
+    #[inline]
+    fn gradient(&self, c1: T, c2: T) -> [T; 2] {
+        self.0.gradient(c1, c2)
+    }
+    #[inline]
+    fn hessian(&self, c1: T, c2: T) -> [T; 3] {
+        self.0.hessian(c1, c2)
+    }
+    #[inline]
+    fn derivatives(&self, c1: T, c2: T) -> ([T; 2], [T; 3]) {
+        self.0.derivatives(c1, c2)
+    }
+}
+
+/// `sum delta q / j_s h^3` over the band of `m`: the integral of `q` (a function of the
+/// surface kinematics of `gs`) over the membrane's reference area (`dA_R = dA / j_s`,
+/// `j_s = sqrt(c2)`; cells with `c2 <= 0` left out).
+pub(crate) fn reference_integral<T: Real>(
+    grid: &Grid<T>,
+    m: &MembraneView<'_, T>,
+    gs: &SymField<T>,
+    q: impl Fn(&SurfaceKinematics<T>) -> T,
+) -> f64 {
+    let mut s = 0.0;
+    for &idx in m.band.cells() {
+        let n = cell_vector(m.normal, idx);
+        let k = surface_kinematics(&gs.get(idx), &n);
+        if k.c2 > T::zero() {
+            s += (m.delta.data[idx] * q(&k) / k.c2.sqrt()).f64();
+        }
+    }
+    s * grid.cell_volume().f64()
+}
+
+/// In-plane elasticity of the membranes with a [`SurfaceLaw`]: the force
+/// `div(delta tau)` (2.26) with the stress (2.4) of `G_s`, quasi-implicit (2.32)-(2.35) or
+/// explicit by [`Settings::coupling`](super::Settings::coupling). Needs `G_s`.
+///
+/// ```
+/// use eulermembrane::membrane::{NeoHookean, Skalak};
+/// use eulermembrane::simulation::Elasticity;
+///
+/// // A stiff capsule 0 and a soft capsule 1 in one scene.
+/// let stiff = Elasticity::<f64>::new(NeoHookean::new(10.0)?).only([0]);
+/// let soft = Elasticity::<f64>::new(Skalak::new(1.0, 2.0)?).only([1]);
+/// # let _ = (stiff, soft);
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
+pub struct Elasticity<T: Real> {
+    law: SharedLaw<T>,
+    capsules: Capsules,
+    /// Per capsule of the scene: its evaluation state where the effect acts.
+    work: Vec<Option<InPlaneElasticity<T, SharedLaw<T>>>>,
+    coupling: MembraneCoupling,
+}
+
+impl<T: Real> Elasticity<T> {
+    /// Elasticity with `law` on every capsule.
+    pub fn new(law: impl SurfaceLaw<T> + 'static) -> Self {
+        Elasticity {
+            law: SharedLaw(Arc::new(law)),
+            capsules: Capsules::All,
+            work: Vec::new(),
+            coupling: MembraneCoupling::default(),
+        }
+    }
+
+    /// The same elasticity on the capsules with these indices only.
+    pub fn only(mut self, capsules: impl IntoIterator<Item = usize>) -> Self {
+        self.capsules = Capsules::Only(capsules.into_iter().collect());
+        self
+    }
+
+    /// The law.
+    pub fn law(&self) -> &dyn SurfaceLaw<T> {
+        self.law.0.as_ref()
+    }
+
+    /// The forcing views of capsule `c` of the prepared step (`None` where the effect does not act).
+    fn work(&self, c: usize) -> Option<&InPlaneElasticity<T, SharedLaw<T>>> {
+        self.work.get(c).and_then(|w| w.as_ref())
+    }
+}
+
+impl<T: Real> Effect<T> for Elasticity<T> {
+    fn name(&self) -> &str {
+        "elasticity"
+    }
+    fn describe(&self) -> String {
+        let (mu, k) = small_strain_moduli(self.law());
+        format!(
+            "elasticity law={} shear_modulus={:e} area_modulus={:e} capsules={:?}",
+            self.law.name(),
+            mu.f64(),
+            k.f64(),
+            self.capsules
+        )
+    }
+    fn needs(&self) -> Needs {
+        Needs::STRAIN
+    }
+    fn acts_on(&self, c: usize) -> bool {
+        self.capsules.contains(c)
+    }
+    fn energy_role(&self) -> EnergyRole {
+        EnergyRole::Stored
+    }
+    fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
+        self.capsules.validate("elasticity", setup.capsules)?;
+        let (mu_s, k) = small_strain_moduli(self.law());
+        if !(mu_s > T::zero() && k > T::zero()) {
+            return Err(Error::invalid(
+                "elasticity",
+                format!("law {} with small-strain moduli ({mu_s}, {k})", self.law.name()),
+                "a law with positive shear and area-dilation moduli",
+            ));
+        }
+        self.coupling = setup.settings.coupling;
+        self.work = (0..setup.capsules)
+            .map(|c| self.capsules.contains(c).then(|| InPlaneElasticity::new(setup.grid, self.law.clone())))
+            .collect();
+        Ok(())
+    }
+    fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
+        let (shear, area) = small_strain_moduli(self.law());
+        let k = shear.max(area).f64();
+        membrane_dt_limit(setup.mean_viscosity(), setup.min_spacing(), k, self.coupling).ok()
+    }
+    fn prepare(&mut self, state: &StepState<'_, T>, _: &VectorField<T>, dt: T) -> Result<()> {
+        for (c, w) in self.work.iter_mut().enumerate() {
+            let Some(e) = w.as_mut() else { continue };
+            let m = state.membrane(c)?;
+            let gs = m.gs.ok_or_else(|| missing_field("elasticity", "G_s", c))?;
+            e.evaluate(state.grid, m.band, gs, m.normal, m.delta, dt)?;
+        }
+        Ok(())
+    }
+    fn is_active(&self, state: &StepState<'_, T>) -> bool {
+        any_band(state, &self.capsules)
+    }
+    fn add_force(
+        &self,
+        state: &StepState<'_, T>,
+        v: &VectorField<T>,
+        out: &mut VectorField<T>,
+    ) -> Result<()> {
+        for c in 0..self.work.len() {
+            let Some(e) = self.work(c) else { continue };
+            let band = state.membrane(c)?.band;
+            let f = match self.coupling {
+                MembraneCoupling::Explicit => e.explicit_forcing(band)?,
+                MembraneCoupling::QuasiImplicit => e.forcing(band)?,
+            };
+            if f.is_active() {
+                f.add(state.grid, state.time, v, out)?;
+            }
+        }
+        Ok(())
+    }
+    fn has_implicit(&self, _: &StepState<'_, T>) -> bool {
+        self.coupling == MembraneCoupling::QuasiImplicit
+    }
+    fn add_implicit(
+        &self,
+        state: &StepState<'_, T>,
+        x: &VectorField<T>,
+        y: &mut VectorField<T>,
+    ) -> Result<()> {
+        if self.coupling != MembraneCoupling::QuasiImplicit {
+            return Ok(());
+        }
+        for c in 0..self.work.len() {
+            let Some(e) = self.work(c) else { continue };
+            e.implicit(state.membrane(c)?.band)?.add_apply(state.grid, x, y)?;
+        }
+        Ok(())
+    }
+    fn implicit_at(&self, state: &StepState<'_, T>, x: &VectorField<T>, comp: usize, idx: usize) -> T {
+        if self.coupling != MembraneCoupling::QuasiImplicit {
+            return T::zero();
+        }
+        let mut s = T::zero();
+        for c in 0..self.work.len() {
+            let Some(e) = self.work(c) else { continue };
+            // `add_implicit` reports a band mismatch; here such a capsule adds nothing.
+            let Ok(m) = state.membrane(c) else { continue };
+            if let Ok(t) = e.implicit(m.band) {
+                s = s + t.apply_at(state.grid, x, comp, idx);
+            }
+        }
+        s
+    }
+    fn stored_energy(&self, state: &StepState<'_, T>) -> f64 {
+        let energy = |k: &SurfaceKinematics<T>| self.law.energy(k.c1, k.c2);
+        (0..self.work.len())
+            .filter(|&c| self.work(c).is_some())
+            .filter_map(|c| {
+                let m = state.membrane(c).ok()?;
+                Some(reference_integral(state.grid, &m, m.gs?, energy))
+            })
+            .sum()
+    }
+    fn surface_law(&self, c: usize) -> Option<&dyn SurfaceLaw<T>> {
+        self.capsules.contains(c).then(|| self.law())
+    }
+}
+
+/// Bending of the membranes with modulus `E_b` (2.8): the force `div(q~ n)` of the modified
+/// bending stress (2.16)-(2.17), or the energy gradient of [`BendingForm::EnergyGradient`]
+/// (by [`Settings::bending_form`](super::Settings::bending_form)). Needs `kappa_R tilde`.
+pub struct Bending<T: Real> {
+    eb: T,
+    capsules: Capsules,
+    work: Vec<Option<BendingStress<T>>>,
+    form: BendingForm,
+    atanh4: bool,
+}
+
+impl<T: Real> Bending<T> {
+    /// Bending with modulus `eb` on every capsule.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `eb` unless it is finite and `> 0`.
+    pub fn new(eb: T) -> Result<Self> {
+        positive("eb", eb)?;
+        Ok(Bending {
+            eb,
+            capsules: Capsules::All,
+            work: Vec::new(),
+            form: BendingForm::default(),
+            atanh4: false,
+        })
+    }
+
+    /// The same bending on the capsules with these indices only.
+    pub fn only(mut self, capsules: impl IntoIterator<Item = usize>) -> Self {
+        self.capsules = Capsules::Only(capsules.into_iter().collect());
+        self
+    }
+
+    /// The bending modulus `E_b`.
+    pub fn eb(&self) -> T {
+        self.eb
+    }
+}
+
+impl<T: Real> Effect<T> for Bending<T> {
+    fn name(&self) -> &str {
+        "bending"
+    }
+    fn describe(&self) -> String {
+        format!("bending eb={:e} capsules={:?}", self.eb.f64(), self.capsules)
+    }
+    fn needs(&self) -> Needs {
+        Needs::CURVATURE
+    }
+    fn acts_on(&self, c: usize) -> bool {
+        self.capsules.contains(c)
+    }
+    fn energy_role(&self) -> EnergyRole {
+        EnergyRole::Stored
+    }
+    fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
+        self.capsules.validate("bending", setup.capsules)?;
+        let s = setup.settings;
+        if s.bending_form == BendingForm::EnergyGradient
+            && !matches!(s.normals, NormalScheme::Atanh2 | NormalScheme::Atanh4)
+        {
+            return Err(Error::invalid(
+                "normals",
+                s.normals.name(),
+                "atanh2 or atanh4 with bending_form EnergyGradient",
+            ));
+        }
+        self.form = s.bending_form;
+        self.atanh4 = s.normals == NormalScheme::Atanh4;
+        let mut work = Vec::with_capacity(setup.capsules);
+        for c in 0..setup.capsules {
+            work.push(if self.capsules.contains(c) {
+                Some(BendingStress::new(setup.grid, self.eb)?)
+            } else {
+                None
+            });
+        }
+        self.work = work;
+        Ok(())
+    }
+    fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
+        bending_dt_limit(setup.mean_viscosity(), setup.min_spacing(), self.eb.f64()).ok()
+    }
+    fn prepare(&mut self, state: &StepState<'_, T>, _: &VectorField<T>, _: T) -> Result<()> {
+        for (c, w) in self.work.iter_mut().enumerate() {
+            let Some(b) = w.as_mut() else { continue };
+            let m = state.membrane(c)?;
+            let kappa = m.curvature.ok_or_else(|| missing_field("bending", "kappa_R tilde", c))?;
+            match self.form {
+                BendingForm::EnergyGradient => {
+                    b.evaluate_variational(state.grid, m.band, m.phi, kappa, self.atanh4)?
+                }
+                _ => b.evaluate(state.grid, m.band, m.normal, m.delta, kappa)?,
+            }
+        }
+        Ok(())
+    }
+    fn is_active(&self, state: &StepState<'_, T>) -> bool {
+        any_band(state, &self.capsules)
+    }
+    fn add_force(
+        &self,
+        state: &StepState<'_, T>,
+        v: &VectorField<T>,
+        out: &mut VectorField<T>,
+    ) -> Result<()> {
+        for (c, w) in self.work.iter().enumerate() {
+            let Some(b) = w.as_ref() else { continue };
+            let f = b.forcing(state.membrane(c)?.band)?;
+            if f.is_active() {
+                f.add(state.grid, state.time, v, out)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A surface force density per unit area `f(x, t)` (position, time), applied to every capsule
+/// as the volume force `delta f` (2.26), e.g. the paper's squashing force
+/// `F_b = -delta sgn(z - 0.25) gamma e_z` of Sec. 3.2.
+pub type SurfaceForceFn = dyn Fn([f64; 3], f64) -> [f64; 3] + Send + Sync;
+
+/// A surface force `f(x, t)` per unit area on the membranes ([`SurfaceForceFn`]), spread as
+/// `delta f` on the faces around each membrane band, with `delta` cut to the band
+/// (`delta h >= epsilon`, like every membrane force) and averaged to the faces.
+pub struct SurfaceLoad {
+    f: Arc<SurfaceForceFn>,
+    capsules: Capsules,
+}
+
+impl SurfaceLoad {
+    /// A load `f(x, t)` on every capsule.
+    pub fn new(f: impl Fn([f64; 3], f64) -> [f64; 3] + Send + Sync + 'static) -> Self {
+        SurfaceLoad { f: Arc::new(f), capsules: Capsules::All }
+    }
+
+    /// The same load on the capsules with these indices only.
+    pub fn only(mut self, capsules: impl IntoIterator<Item = usize>) -> Self {
+        self.capsules = Capsules::Only(capsules.into_iter().collect());
+        self
+    }
+}
+
+impl<T: Real> Effect<T> for SurfaceLoad {
+    fn name(&self) -> &str {
+        "surface_force"
+    }
+    fn describe(&self) -> String {
+        format!("surface_force capsules={:?}", self.capsules)
+    }
+    fn acts_on(&self, c: usize) -> bool {
+        self.capsules.contains(c)
+    }
+    fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
+        self.capsules.validate("surface_force", setup.capsules)
+    }
+    fn add_force(
+        &self,
+        state: &StepState<'_, T>,
+        _: &VectorField<T>,
+        out: &mut VectorField<T>,
+    ) -> Result<()> {
+        let grid = state.grid;
+        out.matches(grid, "force")?;
+        let st = grid.strides();
+        let half = T::lit(0.5);
+        let t = state.time.f64();
+        for c in (0..state.capsule_count()).filter(|&c| self.capsules.contains(c)) {
+            let m = state.membrane(c)?;
+            let band = m.band;
+            let delta = |idx: usize| if band.contains(idx) { m.delta.data[idx] } else { T::zero() };
+            for (&idx, ijk) in band.halo(1).iter().zip(band.coords(1)) {
+                let [i, j, k] = ijk.map(|x| x as isize);
+                for d in 0..3 {
+                    if !grid.is_periodic(d) && ijk[d] == 0 {
+                        continue;
+                    }
+                    let dd = half * (delta(idx) + delta(idx - st[d]));
+                    if dd == T::zero() {
+                        continue;
+                    }
+                    let x = grid.face_center(d, i, j, k).map(|x| x.f64());
+                    out.c[d].data[idx] += dd * T::lit((self.f)(x, t)[d]);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<T: Real> Effect<T> for BodyForce<T> {
+    fn name(&self) -> &str {
+        "body_force"
+    }
+    fn describe(&self) -> String {
+        format!("body_force f={:?}", self.density().map(|x| x.f64()))
+    }
+    fn is_active(&self, _: &StepState<'_, T>) -> bool {
+        Forcing::is_active(self)
+    }
+    fn add_force(
+        &self,
+        state: &StepState<'_, T>,
+        v: &VectorField<T>,
+        out: &mut VectorField<T>,
+    ) -> Result<()> {
+        Forcing::add(self, state.grid, state.time, v, out)
+    }
+}
+
+/// Whether any of `capsules` has a non-empty membrane band (a membrane force is active).
+fn any_band<T: Real>(state: &StepState<'_, T>, capsules: &Capsules) -> bool {
+    (0..state.capsule_count())
+        .filter(|&c| capsules.contains(c))
+        .any(|c| state.membrane(c).is_ok_and(|m| !m.band.is_empty()))
+}
+
+/// The error of an effect run on a capsule without a field it needs (a bug of the effect's
+/// [`needs`](Effect::needs), not of the user's input).
+fn missing_field(effect: &str, field: &str, c: usize) -> Error {
+    Error::Unsupported {
+        component: "Effect",
+        detail: format!(
+            "{effect} on capsule {c}, which carries no {field}: the effect must declare it in needs()"
+        ),
+    }
+}
+
+/// The explicit forces of a scene's effects, summed in the order the effects were added, as the
+/// flow stepper's [`Forcing`].
+pub(crate) struct EffectForcing<'a, T: Real> {
+    pub(crate) effects: &'a [Box<dyn Effect<T>>],
+    pub(crate) state: &'a StepState<'a, T>,
+}
+
+impl<T: Real> Forcing<T> for EffectForcing<'_, T> {
+    fn is_active(&self) -> bool {
+        self.effects.iter().any(|e| e.is_active(self.state))
+    }
+    fn add(&self, _: &Grid<T>, _: T, v: &VectorField<T>, out: &mut VectorField<T>) -> Result<()> {
+        for e in self.effects.iter().filter(|e| e.is_active(self.state)) {
+            e.add_force(self.state, v, out)?;
+        }
+        Ok(())
+    }
+}
+
+/// The quasi-implicit terms of a scene's effects, summed in order, as the predictor's
+/// [`ImplicitTerm`].
+pub(crate) struct EffectImplicit<'a, T: Real> {
+    pub(crate) effects: &'a [Box<dyn Effect<T>>],
+    pub(crate) state: &'a StepState<'a, T>,
+}
+
+impl<T: Real> EffectImplicit<'_, T> {
+    /// Whether any effect has an implicit part this step.
+    pub(crate) fn any(&self) -> bool {
+        self.effects.iter().any(|e| e.has_implicit(self.state))
+    }
+}
+
+impl<T: Real> ImplicitTerm<T> for EffectImplicit<'_, T> {
+    fn add_apply(&self, _: &Grid<T>, x: &VectorField<T>, y: &mut VectorField<T>) -> Result<()> {
+        for e in self.effects.iter().filter(|e| e.has_implicit(self.state)) {
+            e.add_implicit(self.state, x, y)?;
+        }
+        Ok(())
+    }
+    fn apply_at(&self, _: &Grid<T>, x: &VectorField<T>, c: usize, idx: usize) -> T {
+        self.effects
+            .iter()
+            .filter(|e| e.has_implicit(self.state))
+            .fold(T::zero(), |s, e| s + e.implicit_at(self.state, x, c, idx))
+    }
+}
