@@ -91,7 +91,7 @@ pub struct Settings<T> {
     /// stretching term leaves out that turn of the frame along the path, so that mixing
     /// neighbours of different tangent planes adds no normal part to `G_s` (other sources of
     /// it remain: combine with [`tangential_gs`](Self::tangential_gs), see
-    /// `docs/validation.md`). Not in the paper. Default `false`.
+    /// `docs/validation/squashed_sphere.md`). Not in the paper. Default `false`.
     ///
     /// [`StrainTransport::with_tangent_frame`]: crate::membrane::StrainTransport::with_tangent_frame
     pub tangent_frame_gs: bool,
