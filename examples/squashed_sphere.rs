@@ -24,7 +24,7 @@
 //! Transport of `G_s`: this example runs with `Settings::tangential_gs` on, the projection
 //! `G_s <- P G_s P` on the band after each step, which keeps the continuum's `G_s n = 0` of
 //! (2.18). Its figure is the energy budget, and the normal part of `G_s` that the paper's
-//! transport (2.40) lets grow is where that budget's error comes from (`docs/validation.md`,
+//! transport (2.40) lets grow is where that budget's error comes from (`docs/validation/squashed_sphere.md`,
 //! "The normal part of `G_s`"). At N = 64 to `t` = 2, `energy_err` is 4.50e-3 with the
 //! projection and 1.21e-2 with the paper's transport; the Table 2 orders are met either way
 //! (L1 `phi`/`v`/`p` 1.107/0.930/0.908 with it, 1.107/0.935/0.900 without).
@@ -118,7 +118,7 @@ fn build(n: usize, load: Load, settings: Settings<f64>) -> eulermembrane::Result
 
 /// The load `F_b = -delta s(z) gamma e_z` for `t <= 0.5`: the paper's `s = sgn(z - 0.25)`, or
 /// with `--linear-load` the continuous `s = clamp((z - 0.25) / R, -1, 1)`, a diagnostic without
-/// the jump of the tangential traction at the equator (`docs/validation.md`).
+/// the jump of the tangential traction at the equator (`docs/validation/squashed_sphere.md`).
 #[derive(Clone, Copy)]
 struct Load {
     gamma: f64,

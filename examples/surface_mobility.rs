@@ -23,9 +23,9 @@
 //! shear-stress jump `g grad_s Y`), while the normal velocity is smooth across it; averaging over
 //! a band of width `w` lowers the former by `O(w / a)` with a large constant (the kink's slope is
 //! `g / mu` against a surface value of `g a / (7 mu)`). That is the coarse-grid softness of the
-//! capsules in shear (`docs/validation.md`).
+//! capsules in shear (`docs/validation/shear_capsule.md`).
 //!
-//! Flags: `--n LIST` (24,32, about a minute; the table of `docs/validation.md` is
+//! Flags: `--n LIST` (24,32, about a minute; the table of `docs/validation/surface_mobility.md` is
 //! `--n 24,32,48,64`, about 6 minutes; cells per side, `a / h = N / 8`), `--beta B` (sharpness of the
 //! `phi` profile, initial and advected; 1, the paper's), `--steps` (4000), `--out DIR`
 //! (`out/surface_mobility`: `mobility.csv`, `mobility.svg`).

@@ -52,3 +52,6 @@ pub mod testing;
 
 pub use error::{Error, Result};
 pub use real::Real;
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -5,7 +5,7 @@
 //! parallel surface at the centre's signed distance s, mean of k_i / (1 - s k_i).
 //!
 //! `cargo test --release --test interface_normals -- --ignored --nocapture` prints the full
-//! study of docs/validation_interface.md (N = 16 to 128 cells per diameter).
+//! study of docs/validation/interface.md (N = 16 to 128 cells per diameter).
 
 use eulermembrane::grid::{Field, Grid};
 use eulermembrane::interface::geometry::{Geometry, NormalScheme};
@@ -116,7 +116,7 @@ fn normals_at_radius_16() {
 }
 
 #[test]
-#[ignore = "study: a minute in release; prints the tables of docs/validation_interface.md"]
+#[ignore = "study: a minute in release; prints the tables of docs/validation/interface.md"]
 fn normal_and_curvature_study() {
     for (name, build) in [
         (

@@ -3,7 +3,7 @@
 //! inside and out: a normal force `g Y e_r` (`Y = 2 x z / r^2`) moves the surface with
 //! `u_r = (4/35) g a Y / mu`, a tangential force `g grad_s Y` with `u_t = (1/7) g a grad_s Y / mu`.
 //! The full set-up and the measured table are in `examples/surface_mobility.rs` and
-//! `docs/validation.md`; here at 3 and 4 cells per radius.
+//! `docs/validation/surface_mobility.md`; here at 3 and 4 cells per radius.
 
 use eulermembrane::diagnostics::{
     STOKES_L2_NORMAL, STOKES_L2_TANGENTIAL, STOKES_L2_TANGENTIAL_NORMAL, l2_normal_mode as normal_mode,
@@ -39,7 +39,7 @@ fn normal_mobility_is_within_twenty_percent_of_stokes_and_converges() {
     let coarse = response(24, normal_mode)[0] / stokes;
     let fine = response(32, normal_mode)[0] / stokes;
     eprintln!("normal mobility / Stokes: a/h = 3: {coarse:.4}, a/h = 4: {fine:.4}");
-    // Measured 0.78 and 0.84 (see docs/validation.md for 6 and 8 cells per radius).
+    // Measured 0.78 and 0.84 (see docs/validation/surface_mobility.md for 6 and 8 cells per radius).
     assert!(fine > 0.8 && fine < 1.0, "u_r / Stokes at a/h = 4: {fine}");
     assert!(fine > coarse && coarse > 0.6, "a/h = 3: {coarse}, a/h = 4: {fine}");
 }
@@ -51,7 +51,7 @@ fn tangential_mobility_converges_from_below() {
     let [fine_r, fine_t] = response(32, tangential_mode);
     let fine = fine_t / stokes_t;
     // The tangential velocity sits on a kink of the sharp solution that the band averages
-    // away: measured 0.40 and 0.47 (see docs/validation.md for 6 and 8 cells per radius).
+    // away: measured 0.40 and 0.47 (see docs/validation/surface_mobility.md for 6 and 8 cells per radius).
     assert!(fine > coarse && coarse > 0.3 && fine < 1.0, "a/h = 3: {coarse}, a/h = 4: {fine}");
     // The normal velocity it drives is smooth across the membrane: within 20 % like above.
     let normal = fine_r / stokes_r;

@@ -431,7 +431,7 @@ fn squashed_sphere_n32_default() -> (f64, f64, f64) {
 }
 
 /// The paper's transport on the squashed sphere at N = 32 (3.2 cells per radius): the energy
-/// error is 2.31e-2 of the peak elastic energy (1.21e-2 at N = 64, `docs/validation.md`), and
+/// error is 2.31e-2 of the peak elastic energy (1.21e-2 at N = 64, `docs/validation/squashed_sphere.md`), and
 /// the volume is kept to round-off.
 #[test]
 fn squashed_sphere_default_energy_error() {
@@ -444,7 +444,7 @@ fn squashed_sphere_default_energy_error() {
 /// normal components grow, and a shear across the membrane feeds them into the in-plane block.
 /// `GsTransport::Tangential` removes them after each step: `|G_s n|` stays at round-off. On its
 /// own it does not lower the squashed sphere's energy error at N = 32 (2.82e-2 against 2.31e-2);
-/// at N = 64 it does (4.50e-3 against 1.21e-2, `docs/validation.md`).
+/// at N = 64 it does (4.50e-3 against 1.21e-2, `docs/validation/squashed_sphere.md`).
 #[test]
 fn tangential_gs_keeps_g_s_tangential() {
     let (err_t, gn_t, vol_t) =
@@ -458,7 +458,7 @@ fn tangential_gs_keeps_g_s_tangential() {
 
 /// `GsTransport::TangentFrame` on the same squashed sphere: the transport in the tangent frame
 /// halves the energy error (measured 1.13e-2 of the peak elastic energy at N = 32, against
-/// 2.31e-2 with the paper's transport; at N = 64, `docs/validation.md`: 8.73e-3 against 1.21e-2
+/// 2.31e-2 with the paper's transport; at N = 64, `docs/validation/squashed_sphere.md`: 8.73e-3 against 1.21e-2
 /// to `t = 0.7`). It does not keep `G_s` tangential by itself (`|G_s n|` stays well above
 /// round-off on the band): the normal part has other sources as well.
 #[test]
@@ -471,7 +471,7 @@ fn tangent_frame_transport_lowers_the_energy_error() {
     assert!(vol < 1e-10, "volume drift {vol}");
 }
 
-/// Both transport options together, the combination `docs/validation.md` recommends for this
+/// Both transport options together, the combination `docs/validation/squashed_sphere.md` recommends for this
 /// case (energy error 1.61e-3 at N = 64, against 1.21e-2 with the paper's transport): at N = 32
 /// 1.45e-2, also below the paper's transport.
 #[test]

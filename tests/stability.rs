@@ -195,7 +195,7 @@ fn sphere_at_rest(settings: Settings<f64>, steps: usize) -> (f64, f64) {
     (early, max_speed(&sim))
 }
 
-/// Bending at rest (docs/validation.md, "The sign of the bending force"): the spurious velocity of a sphere at
+/// Bending at rest (docs/validation/membrane_forces.md, "The sign of the bending force"): the spurious velocity of a sphere at
 /// rest with the paper's force decays (measured 7.8e-4 after 10 steps, 5.8e-4 after 200). With
 /// the force of the wrong sign (`membrane::bending`, "The sign of the force") it grew 25 times
 /// in 50 steps. Asserted: no growth over 60 steps.

@@ -49,7 +49,7 @@ pub struct AdvectionParams<T> {
     pub beta: T,
     /// Normal construction of the reconstruction. Default [`NormalScheme::Atanh4`]: more
     /// accurate than the paper's [`NormalScheme::Youngs`] at every resolution of the
-    /// single-vortex test (see `docs/validation_interface.md`) for about 20 % more
+    /// single-vortex test (see `docs/validation/interface.md`) for about 20 % more
     /// reconstruction cost. [`NormalScheme::Deconvolved`] is not allowed here.
     pub normals: NormalScheme,
     /// Cells with `phi <= tiny` or `phi >= 1 - tiny` are uniform (no profile). Default

@@ -30,7 +30,7 @@
 //! 3x3x3 stencil. Because the MTHINC profile is a hyperbolic tangent of a signed distance, the
 //! transform `psi = atanh(2 phi - 1)` is a signed-distance-like field (in units of `h / beta`)
 //! inside the band, smooth where `phi` itself is steep or flat; differencing it gives normals and
-//! curvatures an order of magnitude more accurate (see `docs/validation_interface.md`). Normals
+//! curvatures an order of magnitude more accurate (see `docs/validation/interface.md`). Normals
 //! and curvatures do not depend on the scale of the level function, so `beta` is not needed here.
 //!
 //! Curvature: for `psi` with gradient `g` and Hessian `S` (second- or fourth-order central

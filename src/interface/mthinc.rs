@@ -55,7 +55,7 @@ pub enum CellQuadrature {
     Gauss2,
     /// Exact integration along the axis of the largest normal component, 2-point Gauss in the
     /// other axes (after the original MTHINC); about three times as costly, no more accurate in
-    /// the single-vortex test (see `docs/validation_interface.md`).
+    /// the single-vortex test (see `docs/validation/interface.md`).
     ExactAlongNormal,
 }
 

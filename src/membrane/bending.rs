@@ -33,7 +33,7 @@
 //! normal stiffness of this force is `+23.0` to `+23.7 E_b/R⁴`, against `λ(λ − 2) E_b/R⁴ = 24`
 //! (`λ = l(l + 1)`) of the moment law (2.8) in the continuum, and the same with a minus sign
 //! with the inward normal. With the inward normal a sphere at rest is unstable from about ten
-//! cells per radius, whatever the time step: the bending failures that `docs/validation.md`
+//! cells per radius, whatever the time step: the bending failures that `docs/validation/membrane_forces.md`
 //! records before this was found. See `tests/membrane_grid.rs`.
 //!
 //! # The reference curvature is a field

@@ -82,7 +82,8 @@ pub enum MembraneCoupling {
 /// How the surface deformation tensor `G_s` is carried from step to step. Only
 /// [`Paper`](Self::Paper) is the paper's; the others repair the normal part of `G_s` that its
 /// discrete transport lets grow (in the continuum `G_s n = 0`, (2.18)); see
-/// `docs/architecture.md` ("Numerical options beyond the paper") for what each gains and costs.
+/// `docs/architecture.md` ("Numerical options beyond the paper") and
+/// `docs/validation/squashed_sphere.md` for what each gains and costs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum GsTransport {
     /// The transport (2.40) and the re-set to `P` off the band.
