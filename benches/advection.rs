@@ -10,7 +10,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use eulermembrane::grid::{Grid, VectorField};
 use eulermembrane::interface::geometry::Geometry;
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
-use eulermembrane::interface::{AdvectionParams, Advector, NormalScheme};
+use eulermembrane::interface::{AdvectionParams, Advector, Carried, NormalScheme};
 use std::f64::consts::PI;
 
 fn setup() -> (Grid<f64>, VectorField<f64>) {
@@ -33,7 +33,9 @@ fn bench(c: &mut Criterion) {
     for scheme in [NormalScheme::Youngs, NormalScheme::Atanh4] {
         let params = AdvectionParams { normals: scheme, ..Default::default() };
         for curvature in [false, true] {
-            let mut adv = Advector::new(&g, params, curvature).unwrap();
+            let mut adv =
+                Advector::new(&g, params, if curvature { Carried::PhiAndCurvature } else { Carried::Phi })
+                    .unwrap();
             let (mut phi, mut kt) = (phi0.clone(), kt0.clone());
             let name = format!("step_{}_{}", scheme.name(), if curvature { "phi_kappa" } else { "phi" });
             group.bench_function(&name, |b| {
@@ -49,7 +51,7 @@ fn bench(c: &mut Criterion) {
                 })
             });
         }
-        let mut adv = Advector::new(&g, params, true).unwrap();
+        let mut adv = Advector::new(&g, params, Carried::PhiAndCurvature).unwrap();
         group.bench_function(format!("reconstruct_{}", scheme.name()), |b| {
             b.iter(|| adv.reconstruct(&g, &phi0, Some(&kt0)).unwrap())
         });

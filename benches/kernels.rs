@@ -38,9 +38,9 @@ use eulermembrane::fluid::{
     Coefficient, Forcing, HelmholtzPrecond, KrylovParams, KrylovWorkspace, LinOp, Materials,
 };
 use eulermembrane::grid::{Boundary, Field, Grid, SymField, VectorField};
-use eulermembrane::interface::geometry::{Band as PhiBand, delta_in_band};
+use eulermembrane::interface::geometry::{PhiRange, delta_in_band};
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
-use eulermembrane::interface::{AdvectionParams, Advector, Geometry, NormalScheme};
+use eulermembrane::interface::{AdvectionParams, Advector, Carried, Geometry, NormalScheme};
 use eulermembrane::membrane::{
     Band, BendingStress, InPlaneElasticity, Skalak, StrainTransport, fill_projector,
 };
@@ -61,9 +61,9 @@ struct Setup<T: Real> {
     dt: T,
 }
 
-fn geometry_band<T: Real>() -> PhiBand<T> {
+fn geometry_band<T: Real>() -> PhiRange<T> {
     let tiny = T::lit(1e-10).max(T::epsilon() * T::lit(4.0));
-    PhiBand { lower: tiny, upper: T::one() - tiny }
+    PhiRange { lower: tiny, upper: T::one() - tiny }
 }
 
 /// Normals, `delta` and the band from `phi`, as the coupled step derives them.
@@ -124,7 +124,12 @@ fn kernels_of<T: Real>(c: &mut Criterion<CpuTime>, ty: &str, n: usize) {
     let lit = T::lit;
 
     for curvature in [false, true] {
-        let mut adv = Advector::new(&g, AdvectionParams::default(), curvature).unwrap();
+        let mut adv = Advector::new(
+            &g,
+            AdvectionParams::default(),
+            if curvature { Carried::PhiAndCurvature } else { Carried::Phi },
+        )
+        .unwrap();
         let (mut phi, mut kt) = (s.phi.clone(), s.kt.clone());
         let name = if curvature { "mthinc_convolved_step" } else { "mthinc_step" };
         group.bench_function(name, |b| {
@@ -256,7 +261,7 @@ fn band_cost(c: &mut Criterion<CpuTime>) {
         let mut elastic = InPlaneElasticity::new(&g, Skalak::new(1.0, 2.0).unwrap());
         let mut bending = BendingStress::new(&g, 1e-3).unwrap();
         let mut transport = StrainTransport::new(&g).unwrap();
-        let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+        let mut adv = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
         let (mut phi, mut kt, mut gs) = (s.phi.clone(), s.kt.clone(), s.gs.clone());
         let mut out = VectorField::zeros(&g);
         group.bench_function(BenchmarkId::new("mthinc_convolved_step", n), |b| {

@@ -13,7 +13,7 @@
 
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
-use eulermembrane::interface::{AdvectionParams, Advector, NormalScheme};
+use eulermembrane::interface::{AdvectionParams, Advector, Carried, NormalScheme};
 use std::io::Write as _;
 
 mod common;
@@ -47,7 +47,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let steps = (3.0 / (cfl * h)).ceil() as usize;
     let dt = 1.0 / steps as f64;
     let params = AdvectionParams { normals, ..Default::default() };
-    let mut adv = Advector::new(&g, params, curvature)?;
+    let mut adv = Advector::new(&g, params, if curvature { Carried::PhiAndCurvature } else { Carried::Phi })?;
     let mass0 = phi0.interior_sum(&g);
     let mut csv = std::io::BufWriter::new(std::fs::File::create(out.join("history.csv"))?);
     writeln!(csv, "step,t,volume_drift,profile_cells")?;

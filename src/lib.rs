@@ -44,6 +44,7 @@ pub mod grid;
 pub mod interface;
 pub mod io;
 pub mod membrane;
+pub mod prelude;
 pub mod real;
 pub mod simulation;
 pub mod tensor;

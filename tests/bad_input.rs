@@ -15,7 +15,7 @@ use eulermembrane::grid::{Boundary, Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{
     Biconcave, Circle, Ellipse, Ellipsoid, SignedDistanceFn, Smoothing, Sphere,
 };
-use eulermembrane::interface::{self, AdvectionParams, Advector, Geometry, NormalScheme};
+use eulermembrane::interface::{self, AdvectionParams, Advector, Carried, Geometry, NormalScheme};
 use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::io::plot::{Figure, Scale};
@@ -249,17 +249,17 @@ proptest! {
         let g = small();
         prop_assert_eq!(param_name(&refused("membrane::Band::new", || membrane::Band::new(&g, eps))), "epsilon");
         prop_assert!(membrane::Band::new(&g, ok_eps).is_ok());
-        refused("interface::Band::new", || interface::Band::new(lo, lo + width));
-        refused("interface::Band::new", || interface::Band::new(-lo.abs() - 1e-3, 0.5));
-        refused("interface::Band::new", || interface::Band::new(0.5, 1.0 + lo.abs() + 1e-3));
-        prop_assert!(interface::Band::new(0.0, 1.0).is_ok());
+        refused("interface::PhiRange::new", || interface::PhiRange::new(lo, lo + width));
+        refused("interface::PhiRange::new", || interface::PhiRange::new(-lo.abs() - 1e-3, 0.5));
+        refused("interface::PhiRange::new", || interface::PhiRange::new(0.5, 1.0 + lo.abs() + 1e-3));
+        prop_assert!(interface::PhiRange::new(0.0, 1.0).is_ok());
         let params = AdvectionParams { beta, ..AdvectionParams::default() };
-        refused("Advector::new", || Advector::new(&g, params, true));
+        refused("Advector::new", || Advector::new(&g, params, Carried::PhiAndCurvature));
         let params = AdvectionParams { tiny, ..AdvectionParams::default() };
-        refused("Advector::new", || Advector::new(&g, params, false));
+        refused("Advector::new", || Advector::new(&g, params, Carried::Phi));
         let params = AdvectionParams { normals: NormalScheme::Deconvolved, ..AdvectionParams::default() };
-        refused("Advector::new", || Advector::new(&g, params, false));
-        let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+        refused("Advector::new", || Advector::new(&g, params, Carried::Phi));
+        let mut adv = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
         let (n, mut rhs) = (g.len(), vec![0.0; g.len()]);
         refused("Advector::restore_history", || adv.restore_history(beta.min(0.0), &rhs, &rhs));
         refused("Advector::restore_history", || adv.restore_history(1e-3, &rhs[..n - 1], &rhs));

@@ -2,13 +2,13 @@
 //! N = 32, a 3D translation, shapes and their volumes, geometry integrals, errors.
 
 use eulermembrane::grid::{Field, Grid, VectorField};
-use eulermembrane::interface::geometry::{Band, Geometry, NormalScheme, delta_in_band};
+use eulermembrane::interface::geometry::{Geometry, NormalScheme, PhiRange, delta_in_band};
 use eulermembrane::interface::mthinc::{CellQuadrature, Reconstruction, cell_average, solve_offset};
 use eulermembrane::interface::shapes::{
     Biconcave, Circle, Ellipse, Ellipsoid, Shape, SignedDistanceFn, Smoothing, Sphere, convolved_curvature,
     smoothed_fields, smoothed_phi,
 };
-use eulermembrane::interface::{AdvectionParams, Advector, advect::cfl_number};
+use eulermembrane::interface::{AdvectionParams, Advector, Carried, advect::cfl_number};
 use eulermembrane::{Error, Real};
 use proptest::prelude::*;
 use std::f64::consts::PI;
@@ -49,7 +49,7 @@ fn conservation_to_round_off_in_3d() {
     let m0 = phi.interior_sum(&g);
     for scheme in [NormalScheme::Youngs, NormalScheme::Atanh4] {
         let p = AdvectionParams { normals: scheme, ..Default::default() };
-        let mut adv = Advector::new(&g, p, true).unwrap();
+        let mut adv = Advector::new(&g, p, Carried::PhiAndCurvature).unwrap();
         for _ in 0..15 {
             let info = adv.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
             assert!(info.profile_cells > 0 && info.max_iterations < 10, "{info:?}");
@@ -74,7 +74,7 @@ fn walls_and_curvature_tensors() {
     let v = VectorField::from_stream_function(&g, |x| (2.0 * PI * x[0]).sin() * (PI * x[1]).sin() / PI);
     let dt = 0.25 / cfl_number(&g, &v, 1.0);
     let m0 = phi.interior_sum(&g);
-    let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+    let mut adv = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
     for _ in 0..30 {
         adv.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
     }
@@ -86,7 +86,7 @@ fn walls_and_curvature_tensors() {
     let mut geo = Geometry::new(&g, NormalScheme::Deconvolved);
     geo.update(&g, &phi);
     let mut kap = SymField::zeros(&g);
-    geo.curvature_tensors(&g, &phi, Band::new(0.2, 0.8).unwrap(), &mut kap);
+    geo.curvature_tensors(&g, &phi, PhiRange::new(0.2, 0.8).unwrap(), &mut kap);
     for (i, j, k) in g.cells() {
         let id = g.idx_u(i, j, k);
         if phi.data[id] > 0.2 && phi.data[id] < 0.8 {
@@ -122,7 +122,7 @@ fn saturated_flat_and_rough_fields_stay_finite() {
     for (case, f0) in fields.into_iter().enumerate() {
         let mut phi = f0.clone();
         let mut kt = f0.clone();
-        let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+        let mut adv = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
         let m0 = phi.interior_sum(&g);
         for _ in 0..10 {
             adv.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
@@ -182,7 +182,7 @@ fn single_vortex_n32_meets_table_1() {
         VectorField::from_stream_function(&g, |x| (PI * x[0]).sin().powi(2) * (PI * x[1]).cos().powi(2) / PI);
     let steps = (cfl_umax(&g, &v0) / (0.25 * h)).ceil() as usize;
     let dt = 1.0 / steps as f64;
-    let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+    let mut adv = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
     let mut v = v0.clone();
     for s in 0..steps {
         let c = (PI * s as f64 * dt).cos();
@@ -231,7 +231,7 @@ fn sphere_translated_through_periodic_box() {
     let steps = 3 * 4 * n; // summed Courant number 0.25
     let dt = 1.0 / steps as f64;
     assert!((cfl_number(&g, &v, dt) - 0.25).abs() < 1e-12);
-    let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+    let mut adv = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
     for _ in 0..steps {
         adv.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
     }
@@ -253,7 +253,7 @@ fn f32_advection_is_stable_and_conservative() {
     let (mut phi, mut kt) = smoothed_fields(&g, &c, &Smoothing::default()).unwrap();
     let v = swirl(&g, 1.0);
     let dt = 0.25 / cfl_number(&g, &v, 1.0);
-    let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+    let mut adv = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
     let m0 = phi.interior_sum(&g);
     for _ in 0..40 {
         adv.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
@@ -268,10 +268,10 @@ fn history_restore_reproduces_the_next_step() {
     let (mut phi, mut kt) = smoothed_fields(&g, &s, &Smoothing::default()).unwrap();
     let v = swirl(&g, 1.0);
     let dt = 0.2 / cfl_number(&g, &v, 1.0);
-    let mut a = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+    let mut a = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
     a.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
     let (dtp, rp, rk) = a.history().unwrap();
-    let mut b = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+    let mut b = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
     b.restore_history(dtp, rp, rk).unwrap();
     let (mut p2, mut k2) = (phi.clone(), kt.clone());
     a.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
@@ -288,10 +288,10 @@ fn history_restore_reproduces_the_next_step() {
 fn bad_input_gives_errors_not_panics() {
     let g = Grid::<f64>::periodic([8, 8, 8], [0.0; 3], [1.0; 3]).unwrap();
     let bad_beta = AdvectionParams { beta: -1.0, ..Default::default() };
-    assert!(matches!(Advector::new(&g, bad_beta, false), Err(Error::InvalidParameter { .. })));
+    assert!(matches!(Advector::new(&g, bad_beta, Carried::Phi), Err(Error::InvalidParameter { .. })));
     let dec = AdvectionParams { normals: NormalScheme::Deconvolved, ..Default::default() };
-    assert!(Advector::new(&g, dec, false).is_err());
-    let mut adv = Advector::new(&g, AdvectionParams::default(), false).unwrap();
+    assert!(Advector::new(&g, dec, Carried::Phi).is_err());
+    let mut adv = Advector::new(&g, AdvectionParams::default(), Carried::Phi).unwrap();
     let mut phi = Field::zeros(&g);
     let mut kt = Field::zeros(&g);
     let v = VectorField::zeros(&g);
@@ -318,7 +318,7 @@ fn bad_input_gives_errors_not_panics() {
     assert!(smoothed_phi(&g, &s, &bad).is_err());
     let nan_shape = SignedDistanceFn::new(3, |_: [f64; 3]| f64::NAN).unwrap();
     assert!(smoothed_phi(&g, &nan_shape, &Smoothing::default()).is_err());
-    assert!(Band::new(0.5, 0.1).is_err());
+    assert!(PhiRange::new(0.5, 0.1).is_err());
     assert!(NormalScheme::from_name("nope").is_err());
 }
 
@@ -368,7 +368,7 @@ fn geometry_integrals_on_a_sphere() {
     let (phi, kt) = smoothed_fields(&g, &s, &Smoothing::default()).unwrap();
     let area = 4.0 * PI * r * r;
     let mut delta = Field::zeros(&g);
-    delta_in_band(&g, &phi, Band::new(0.0, 1.0).unwrap(), &mut delta);
+    delta_in_band(&g, &phi, PhiRange::new(0.0, 1.0).unwrap(), &mut delta);
     let sd = delta.interior_sum(&g) * g.cell_volume();
     assert!((sd / area - 1.0).abs() < 0.02, "{sd} {area}");
     let sk = kt.interior_sum(&g) * g.cell_volume();
@@ -379,9 +379,9 @@ fn geometry_integrals_on_a_sphere() {
         let mut geo = Geometry::new(&g, scheme);
         geo.update(&g, &phi);
         let mut mean = Field::zeros(&g);
-        geo.mean_curvature(&g, &phi, Band::new(0.3, 0.7).unwrap(), &mut mean);
+        geo.mean_curvature(&g, &phi, PhiRange::new(0.3, 0.7).unwrap(), &mut mean);
         let mut normals = [Field::zeros(&g), Field::zeros(&g), Field::zeros(&g)];
-        geo.normals(&g, &phi, Band::new(0.3, 0.7).unwrap(), &mut normals);
+        geo.normals(&g, &phi, PhiRange::new(0.3, 0.7).unwrap(), &mut normals);
         for (i, j, k) in g.cells() {
             let id = g.idx_u(i, j, k);
             if phi.data[id] > 0.3 && phi.data[id] < 0.7 {

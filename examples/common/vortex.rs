@@ -13,7 +13,7 @@
 use eulermembrane::Real;
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{Ellipse, Smoothing, smoothed_fields};
-use eulermembrane::interface::{AdvectionParams, Advector, CellQuadrature, NormalScheme};
+use eulermembrane::interface::{AdvectionParams, Advector, Carried, CellQuadrature, NormalScheme};
 use std::f64::consts::PI;
 use std::time::Instant;
 
@@ -123,7 +123,7 @@ pub fn run<T: Real>(
     let tiny = case.tiny.map_or_else(eulermembrane::interface::advect::default_tiny::<T>, T::lit);
     let params =
         AdvectionParams { beta: T::lit(case.beta), normals: case.normals, quadrature: case.quadrature, tiny };
-    let mut adv = Advector::new(&g, params, true)?;
+    let mut adv = Advector::new(&g, params, Carried::PhiAndCurvature)?;
     let mut v = v0.clone();
     let mass0 = phi0.interior_sum(&g).f64();
     let mut snaps = Vec::new();

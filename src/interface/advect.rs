@@ -92,7 +92,7 @@ pub fn characteristic_length<T: Real>(grid: &Grid<T>) -> T {
 
 /// What a step did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct StepInfo {
+pub struct AdvectionInfo {
     /// Cells (interior and first ghost layer) with `tiny < phi < 1 - tiny`.
     pub band_cells: usize,
     /// Band cells that were reconstructed with a profile (the others had a vanishing gradient).
@@ -102,6 +102,17 @@ pub struct StepInfo {
 }
 
 const NONE: u32 = u32::MAX;
+
+/// What an [`Advector`] carries with the flow.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Carried {
+    /// `phi` alone, by MTHINC (2.29).
+    #[default]
+    Phi,
+    /// `phi` and the convolved reference curvature `kappa_R tilde` (2.30), advected with the
+    /// same reconstruction (what bending needs).
+    PhiAndCurvature,
+}
 
 /// MTHINC advection of `phi`, and optionally of `kappa_R tilde`, with its work arrays and AB2
 /// history. Create once per grid; [`Advector::step`] allocates nothing once the band list has
@@ -126,11 +137,13 @@ pub struct Advector<T> {
 }
 
 impl<T: Real> Advector<T> {
-    /// An advector for `grid`. With `with_curvature`, it also advects `kappa_R tilde` and
-    /// [`Advector::step`] requires that field; without, it allocates nothing for it.
+    /// An advector for `grid` carrying `carried`. With [`Carried::PhiAndCurvature`] it also
+    /// advects `kappa_R tilde` and [`Advector::step`] requires that field; with
+    /// [`Carried::Phi`] it allocates nothing for it.
     ///
     /// Errors: `beta` not in `(0, 10]`, `tiny` not in `[0, 0.5)`.
-    pub fn new(grid: &Grid<T>, params: AdvectionParams<T>, with_curvature: bool) -> Result<Self> {
+    pub fn new(grid: &Grid<T>, params: AdvectionParams<T>, carried: Carried) -> Result<Self> {
+        let with_curvature = carried == Carried::PhiAndCurvature;
         if !(params.beta > T::zero() && params.beta <= T::lit(10.0)) {
             return Err(Error::invalid(
                 "AdvectionParams::beta",
@@ -179,7 +192,7 @@ impl<T: Real> Advector<T> {
     }
 
     /// Whether `kappa_R tilde` is advected.
-    pub fn with_curvature(&self) -> bool {
+    pub fn carries_curvature(&self) -> bool {
         self.curvature
     }
 
@@ -248,7 +261,7 @@ impl<T: Real> Advector<T> {
             (Some(_), false) => Err(Error::Unsupported {
                 component: "Advector",
                 detail: "a kappa_R tilde field was given to an advector created without \
-                         curvature; create it with with_curvature = true"
+                         curvature; create it with Carried::PhiAndCurvature"
                     .into(),
             }),
             (None, true) => Err(Error::Unsupported {
@@ -266,7 +279,7 @@ impl<T: Real> Advector<T> {
         grid: &Grid<T>,
         phi: &Field<T>,
         kappa: Option<&Field<T>>,
-    ) -> Result<StepInfo> {
+    ) -> Result<AdvectionInfo> {
         self.check(grid, phi, kappa)?;
         let n = grid.n();
         let p = self.params;
@@ -297,7 +310,7 @@ impl<T: Real> Advector<T> {
             .map(|(rec, &idx)| {
                 let f = phi.data[idx];
                 let kt = kappa.map_or(T::zero(), |k| k.data[idx]);
-                let mut info = StepInfo { band_cells: 1, ..Default::default() };
+                let mut info = AdvectionInfo { band_cells: 1, ..Default::default() };
                 *rec = Reconstruction::uniform(f, kt);
                 if let Some(nrm) = normal_at(grid, p.normals, phi, idx) {
                     let (r, solve) = Reconstruction::new(f, nrm, scale, p.tiny, p.quadrature);
@@ -309,7 +322,7 @@ impl<T: Real> Advector<T> {
                 }
                 info
             })
-            .reduce(StepInfo::default, |a, b| StepInfo {
+            .reduce(AdvectionInfo::default, |a, b| AdvectionInfo {
                 band_cells: a.band_cells + b.band_cells,
                 profile_cells: a.profile_cells + b.profile_cells,
                 max_iterations: a.max_iterations.max(b.max_iterations),
@@ -333,7 +346,7 @@ impl<T: Real> Advector<T> {
         dt: T,
         phi: &mut Field<T>,
         mut kappa: Option<&mut Field<T>>,
-    ) -> Result<StepInfo> {
+    ) -> Result<AdvectionInfo> {
         crate::error::positive("dt", dt)?;
         self.check(grid, phi, kappa.as_deref())?;
         if v.c.iter().any(|c| c.data.len() != grid.len()) {

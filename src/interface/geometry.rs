@@ -150,26 +150,27 @@ pub struct Curvature<T> {
     pub mean: T,
 }
 
-/// A band of cells around the interface, chosen by `lower < phi < upper`.
+/// A range `lower < phi < upper` of `phi`: the cells around the interface where the geometry
+/// (normals, `delta`, curvature) is evaluated.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Band<T> {
+pub struct PhiRange<T> {
     /// Cells with `phi <= lower` are outside the band.
     pub lower: T,
     /// Cells with `phi >= upper` are outside the band.
     pub upper: T,
 }
 
-impl<T: Real> Band<T> {
-    /// The band `lower < phi < upper`; errors unless `0 <= lower < upper <= 1`.
+impl<T: Real> PhiRange<T> {
+    /// The range `lower < phi < upper`; errors unless `0 <= lower < upper <= 1`.
     pub fn new(lower: T, upper: T) -> crate::Result<Self> {
         if !(lower >= T::zero() && lower < upper && upper <= T::one()) {
             return Err(crate::Error::invalid(
-                "Band",
+                "PhiRange",
                 format!("({lower}, {upper})"),
                 "0 <= lower < upper <= 1",
             ));
         }
-        Ok(Band { lower, upper })
+        Ok(PhiRange { lower, upper })
     }
 
     /// Whether a cell value lies in the band.
@@ -556,12 +557,12 @@ fn fill_psi<T: Real>(grid: &Grid<T>, phi: &Field<T>, psi: &mut Field<T>) {
 /// Field-level geometry: caches `psi = atanh(2 phi - 1)` for the inverse-tanh schemes (and the
 /// deconvolved level field) and fills
 /// fields of normals, curvature tensors, mean curvature (and, free function, delta) restricted
-/// to a [`Band`]. Create it once; its
+/// to a [`PhiRange`]. Create it once; its
 /// methods allocate nothing.
 ///
 /// ```
 /// use eulermembrane::grid::{Field, Grid};
-/// use eulermembrane::interface::geometry::{Band, Geometry, NormalScheme};
+/// use eulermembrane::interface::geometry::{PhiRange, Geometry, NormalScheme};
 /// let g = Grid::<f64>::periodic([16, 16, 16], [0.0; 3], [1.0; 3]).unwrap();
 /// let mut phi = Field::from_cell_fn(&g, |x| {
 ///     let r = ((x[0] - 0.5).powi(2) + (x[1] - 0.5).powi(2) + (x[2] - 0.5).powi(2)).sqrt();
@@ -661,7 +662,7 @@ impl<T: Real> Geometry<T> {
 
     /// Unit normals at the interior cells of `band` into `out` (three cell-centred components);
     /// zero outside the band and where the gradient vanishes. Ghosts of `out` are not touched.
-    pub fn normals(&self, grid: &Grid<T>, phi: &Field<T>, band: Band<T>, out: &mut [Field<T>; 3]) {
+    pub fn normals(&self, grid: &Grid<T>, phi: &Field<T>, band: PhiRange<T>, out: &mut [Field<T>; 3]) {
         let [o0, o1, o2] = out;
         let dx = grid.dims()[0];
         let nx = grid.n()[0];
@@ -690,7 +691,7 @@ impl<T: Real> Geometry<T> {
     }
 
     /// Mean curvature at the interior cells of `band` into `out`; zero elsewhere.
-    pub fn mean_curvature(&self, grid: &Grid<T>, phi: &Field<T>, band: Band<T>, out: &mut Field<T>) {
+    pub fn mean_curvature(&self, grid: &Grid<T>, phi: &Field<T>, band: PhiRange<T>, out: &mut Field<T>) {
         crate::grid::ops::par_interior(grid, &mut out.data, |idx, _, _, _| {
             if band.contains(phi.data[idx]) {
                 self.curvature(grid, phi, idx).map_or(T::zero(), |c| c.mean)
@@ -709,7 +710,7 @@ impl<T: Real> Geometry<T> {
         &self,
         grid: &Grid<T>,
         phi: &Field<T>,
-        band: Band<T>,
+        band: PhiRange<T>,
         out: &mut crate::grid::SymField<T>,
     ) {
         let dx = grid.dims()[0];
@@ -742,7 +743,7 @@ impl<T: Real> Geometry<T> {
 }
 
 /// `delta = |grad phi|` (2.26) at the interior cells of `band` into `out`; zero elsewhere.
-pub fn delta_in_band<T: Real>(grid: &Grid<T>, phi: &Field<T>, band: Band<T>, out: &mut Field<T>) {
+pub fn delta_in_band<T: Real>(grid: &Grid<T>, phi: &Field<T>, band: PhiRange<T>, out: &mut Field<T>) {
     crate::grid::ops::par_interior(grid, &mut out.data, |idx, _, _, _| {
         if band.contains(phi.data[idx]) { delta_at(grid, phi, idx) } else { T::zero() }
     });

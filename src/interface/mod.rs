@@ -21,7 +21,7 @@
 //!
 //! ```
 //! use eulermembrane::grid::{Grid, VectorField};
-//! use eulermembrane::interface::{AdvectionParams, Advector, shapes};
+//! use eulermembrane::interface::{AdvectionParams, Advector, Carried, shapes};
 //! let g = Grid::<f64>::periodic([16, 16, 16], [0.0; 3], [1.0; 3]).unwrap();
 //! let sphere = shapes::Sphere::new([0.5; 3], 0.25).unwrap();
 //! let smooth = shapes::Smoothing::default();
@@ -29,7 +29,7 @@
 //! let mut kt = shapes::convolved_curvature(&g, &sphere, &smooth).unwrap();
 //! let mut v = VectorField::from_fn(&g, |_| [1.0, 0.5, 0.0]);
 //! v.fill_ghosts(&g);
-//! let mut adv = Advector::new(&g, AdvectionParams::default(), true).unwrap();
+//! let mut adv = Advector::new(&g, AdvectionParams::default(), Carried::PhiAndCurvature).unwrap();
 //! let before = phi.interior_sum(&g);
 //! adv.step(&g, &v, 0.01, &mut phi, Some(&mut kt)).unwrap();
 //! assert!((phi.interior_sum(&g) - before).abs() < 1e-12 * before);
@@ -41,6 +41,6 @@ pub mod geometry;
 pub mod mthinc;
 pub mod shapes;
 
-pub use advect::{AdvectionParams, Advector, StepInfo};
-pub use geometry::{Band, Curvature, Geometry, NormalScheme};
+pub use advect::{AdvectionInfo, AdvectionParams, Advector, Carried};
+pub use geometry::{Curvature, Geometry, NormalScheme, PhiRange};
 pub use mthinc::{CellQuadrature, Reconstruction};

@@ -60,7 +60,7 @@
 //!    normal derivative of `δ` (of size `δ/h`) does not multiply the `O(h²)` error of
 //!    `n·(∇_h n)`. Measured on a reference sphere (max norm, `R/h` = 16 to 32): order ≈ 1.9 with
 //!    both projections or with the left one only, ≈ 1.2–1.5 (and degrading) with none. See
-//!    [`curvature_at`];
+//!    [`curvature_tensor_at`];
 //! 2. on `halo(1)`: `(∇·m̃)_l = Σ_k ∂_k m̃_kl` (central), `q̃_j = (∇·m̃)_l P_lj`;
 //! 3. on the faces of `halo(2)`: `f_c = Σ_a ∂_a (q̃_a n_c)` with the face stencil of the in-plane
 //!    force ([`super::force`]: `a = c` differenced across the face, `a ≠ c` averaged to the
@@ -95,18 +95,18 @@ const MIN_CELLS_PER_TASK: usize = 256;
 /// normal at cell centres (ghosts filled) by central differences: `κ[i][j]`, with
 /// `(∇_h n)[i][j] ≈ ∂n_j/∂x_i`. Positive for a sphere with the inward normal (`κ = P/r`).
 #[inline]
-pub fn curvature_at<T: Real>(grid: &Grid<T>, normal: &[Field<T>; 3], idx: usize) -> Mat3<T> {
+pub fn curvature_tensor_at<T: Real>(grid: &Grid<T>, normal: &[Field<T>; 3], idx: usize) -> Mat3<T> {
     let gn = grad_cell_vector_at(grid, normal, idx).map(|row| row.map(|x| -x));
     let p = sym_to_mat(&projector(&cell_vector(normal, idx)));
     matmul(&matmul(&p, &gn), &p)
 }
 
-/// The mean curvature `tr(κ)/2` of [`curvature_at`] at the centre of cell `idx` (`1/r` for a
+/// The mean curvature `tr(κ)/2` of [`curvature_tensor_at`] at the centre of cell `idx` (`1/r` for a
 /// sphere with the inward normal): with a reference normal field, the reference mean curvature
 /// `κ_R = −½ tr(∇n_R)` of (2.9b), e.g. to initialise `κ̃_R = δ κ_R` from the initial shape.
 #[inline]
 pub fn mean_curvature_at<T: Real>(grid: &Grid<T>, normal: &[Field<T>; 3], idx: usize) -> T {
-    let k = curvature_at(grid, normal, idx);
+    let k = curvature_tensor_at(grid, normal, idx);
     T::lit(0.5) * (k[0][0] + k[1][1] + k[2][2])
 }
 
@@ -221,7 +221,7 @@ impl<T: Real> BendingStress<T> {
         self.m.resize(band_cells.len(), [[T::zero(); 3]; 3]);
         self.m.par_iter_mut().zip(band_cells.par_iter()).with_min_len(MIN_CELLS_PER_TASK).for_each(
             |(mo, &idx)| {
-                let kappa = curvature_at(grid, normal, idx);
+                let kappa = curvature_tensor_at(grid, normal, idx);
                 let p = sym_to_mat(&projector(&nrm(idx)));
                 let (d, kr) = (delta.data[idx], kappa_r_tilde.data[idx]);
                 *mo = std::array::from_fn(|i| std::array::from_fn(|j| eb * (d * kappa[i][j] - kr * p[i][j])));

@@ -42,7 +42,7 @@ pub mod strain;
 pub mod stress;
 
 pub use band::{Band, MAX_HALO};
-pub use bending::{BendingForcing, BendingForm, BendingStress, curvature_at, mean_curvature_at};
+pub use bending::{BendingForcing, BendingForm, BendingStress, curvature_tensor_at, mean_curvature_at};
 pub use force::{InPlaneElasticity, InPlaneForcing, InPlaneImplicit};
 pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
 pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};

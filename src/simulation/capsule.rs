@@ -6,9 +6,9 @@ use super::effect::{LevelChoice, MembraneView, Needs};
 use super::effects::reference_integral;
 use super::scene::{ReferenceArea, Settings};
 use crate::grid::{Field, Grid, SymField, VectorField};
-use crate::interface::geometry::{Band as PhiBand, delta_in_band};
+use crate::interface::geometry::{PhiRange, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
-use crate::interface::{Advector, Geometry};
+use crate::interface::{Advector, Carried, Geometry};
 use crate::membrane::{Band, StrainTransport, fill_projector};
 use crate::{Real, Result};
 
@@ -48,9 +48,9 @@ pub(crate) struct Capsule<T: Real> {
 
 /// `phi` range where the geometry (normals, `delta`) is evaluated: wide enough for the
 /// membrane band and the four halo layers around it.
-pub(crate) fn geometry_band<T: Real>() -> PhiBand<T> {
+pub(crate) fn geometry_band<T: Real>() -> PhiRange<T> {
     let tiny = T::lit(1e-10).max(T::epsilon() * T::lit(4.0));
-    PhiBand { lower: tiny, upper: T::one() - tiny }
+    PhiRange { lower: tiny, upper: T::one() - tiny }
 }
 
 impl<T: Real> Level<T> {
@@ -125,7 +125,11 @@ impl<T: Real> Capsule<T> {
             cur,
             next,
             gs,
-            advector: Advector::new(grid, settings.advection, curvature)?,
+            advector: Advector::new(
+                grid,
+                settings.advection,
+                if curvature { Carried::PhiAndCurvature } else { Carried::Phi },
+            )?,
             geometry,
             strain,
             saved: (None, Vec::new(), Vec::new()),
