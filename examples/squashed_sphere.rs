@@ -21,7 +21,7 @@
 //! puts the capsule (1.6 cells in radius) within two cells of the walls, closer than the
 //! library allows.
 //!
-//! Transport of `G_s`: this example runs with `Settings::tangential_gs` on, the projection
+//! Transport of `G_s`: this example runs with `GsTransport::Tangential` on, the projection
 //! `G_s <- P G_s P` on the band after each step, which keeps the continuum's `G_s n = 0` of
 //! (2.18). Its figure is the energy budget, and the normal part of `G_s` that the paper's
 //! transport (2.40) lets grow is where that budget's error comes from (`docs/validation/squashed_sphere.md`,
@@ -29,7 +29,7 @@
 //! projection and 1.21e-2 with the paper's transport; the Table 2 orders are met either way
 //! (L1 `phi`/`v`/`p` 1.107/0.930/0.908 with it, 1.107/0.935/0.900 without).
 //! `--gs-transport paper` runs (2.40) as published (the library's default), `frame` the
-//! advection in each cell's tangent frame (`Settings::tangent_frame_gs`) and `both` the two
+//! advection in each cell's tangent frame (`GsTransport::TangentFrame`) and `both` the two
 //! options together (`energy_err` 1.61e-3); with either the L1 order of `p` falls below 0.9
 //! (0.881, 0.889).
 //!
@@ -37,7 +37,7 @@
 //! (0.01, the membrane band `delta h >= E`), `--beta B` (1, MTHINC sharpness),
 //! `--gs-transport tangential|paper|frame|both` (tangential; `energy_err` at N = 64 to `t` =
 //! 0.7: 4.50e-3 tangential, 1.21e-2 paper, 8.73e-3 frame, 1.61e-3 both), `--conserve-area`
-//! (`Settings::conserve_reference_area`), `--linear-load` (the load profile
+//! (`ReferenceArea::Conserved`), `--linear-load` (the load profile
 //! `clamp((z - 0.25) / R, -1, 1)` instead of `sgn(z - 0.25)`, a diagnostic),
 //! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--vtk-every S` (0.25, in
 //! time units; 0 for none), `--convergence`, `--max-n N` (128), `--out DIR`

@@ -2,7 +2,7 @@
 //!
 //! In the continuum `G_s = F_s F_s^T` is a surface tensor: `G_s n = 0` and `tr G_s` is the sum
 //! of the squared principal stretches, 2 at rest (Sec. 2.1). The discrete transport (2.40) keeps
-//! neither exactly; its normal part `G_s n` is what the projection `Settings::tangential_gs`
+//! neither exactly; its normal part `G_s n` is what the projection `GsTransport::Tangential`
 //! removes each step (see [`crate::membrane::strain`]). This module measures it over the
 //! membrane band, the cells where `delta h >= epsilon` (the band criterion of Sec. 2.2.2, with
 //! `h` the largest spacing among the axes that have more than one cell):

@@ -99,6 +99,27 @@ pub struct StepInfo {
 }
 
 /// Time stepper of the incompressible flow; owns the velocity, the pressure and their history.
+///
+/// A two-phase step for custom drivers: [`prepare`](Self::prepare) computes `v^{n+1}` beside
+/// the state, [`commit`](Self::commit) accepts it, [`discard`](Self::discard) forgets it.
+///
+/// ```
+/// use eulermembrane::fluid::{BodyForce, FlowConfig, FlowStepper, Materials};
+/// use eulermembrane::grid::{Boundary, Grid};
+///
+/// let mut bc = [[Boundary::Periodic; 2]; 3];
+/// bc[1] = [Boundary::wall(), Boundary::wall()];
+/// let grid = Grid::<f64>::new([4, 16, 4], [0.0; 3], [0.25, 1.0, 0.25], bc)?;
+/// let mut flow = FlowStepper::new(&grid, Materials::uniform(1.0, 1.0)?, FlowConfig::default())?;
+/// let drive = BodyForce::new([1.0, 0.0, 0.0])?;
+/// // Propose a step, look at it, take it.
+/// let info = flow.prepare(0.01, &drive, None)?;
+/// assert!(info.cfl < 1.0 && flow.time() == 0.0);
+/// flow.commit()?;
+/// assert_eq!(flow.steps(), 1);
+/// assert!(flow.commit().is_err()); // a step is committed once
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
 pub struct FlowStepper<T: Real> {
     grid: Grid<T>,
     config: FlowConfig,

@@ -10,6 +10,18 @@ use crate::Real;
 use crate::tensor::SYM_PAIRS;
 
 /// One scalar per cell (or per face of one orientation), with ghost layers.
+///
+/// ```
+/// use eulermembrane::grid::{Field, Grid};
+///
+/// let g = Grid::<f64>::periodic([8, 8, 8], [0.0; 3], [1.0; 3])?;
+/// // x at every cell centre, ghosts included; ghosts then made periodic copies.
+/// let mut f = Field::from_cell_fn(&g, |x| x[0]);
+/// f.fill_ghosts(&g);
+/// assert_eq!(f.at(&g, -1, 0, 0), f.at(&g, 7, 0, 0)); // the ghost left of cell 0 is cell 7
+/// assert!((f.interior_sum(&g) - 512.0 * 0.5).abs() < 1e-12); // mean of x over the box
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Field<T> {
     /// Storage, x fastest, `grid.len()` values; index with [`Grid::idx`].
@@ -95,6 +107,17 @@ impl<T: Real> Field<T> {
 
 /// A staggered vector: component `d` on the lower faces normal to axis `d` (the velocity `v`,
 /// a pressure gradient, a face force).
+///
+/// ```
+/// use eulermembrane::grid::{Grid, VectorField};
+///
+/// let g = Grid::<f64>::periodic([8, 8, 8], [0.0; 3], [1.0; 3])?;
+/// // A shear u = z sampled where each component lives: u on the x-faces, at cell-centre z.
+/// let v = VectorField::from_fn(&g, |x| [x[2], 0.0, 0.0]);
+/// assert_eq!(g.face_center(0, 2, 0, 3), [0.25, 0.0625, 0.4375]);
+/// assert_eq!(v.c[0].at(&g, 2, 0, 3), 0.4375);
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct VectorField<T> {
     /// Components `[u, v, w]`.

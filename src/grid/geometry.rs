@@ -12,6 +12,21 @@ pub const GHOST: usize = 3;
 const MIN_CELLS: usize = 4;
 
 /// A uniform Cartesian grid with staggered storage (see the [module docs](super)).
+///
+/// ```
+/// use eulermembrane::grid::{Boundary, Grid};
+///
+/// // A channel: periodic in x and z, no-slip walls at y = 0 and y = 1.
+/// let mut bc = [[Boundary::Periodic; 2]; 3];
+/// bc[1] = [Boundary::wall(), Boundary::wall()];
+/// let g = Grid::<f64>::new([32, 16, 8], [0.0; 3], [2.0, 1.0, 0.5], bc)?;
+/// assert_eq!(g.h(), [0.0625; 3]);
+/// assert!(g.is_periodic(0) && !g.is_periodic(1));
+/// assert_eq!(g.cells().count(), 32 * 16 * 8);
+/// // A cell count that cannot hold the stencils is refused, naming the parameter.
+/// assert!(Grid::<f64>::periodic([2, 16, 16], [0.0; 3], [1.0; 3]).is_err());
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Grid<T> {
     n: [usize; 3],

@@ -46,13 +46,13 @@
 //! surface. On the curved shell the upwind faces mix neighbours whose `G_s` lie in different
 //! planes, and a mean of two projectors `P(n_1)`, `P(n_2)` has a normal part and a smaller
 //! in-plane trace (on the squashed sphere of Sec. 3.2 the energy error is made in the transport
-//! of `G_s`, see `docs/validation/squashed_sphere.md`). [`StrainTransport::with_tangent_frame`] (`Settings::tangent_frame_gs`) turns every
+//! of `G_s`, see `docs/validation/squashed_sphere.md`). [`StrainTransport::with_tangent_frame`] (`GsTransport::TangentFrame`) turns every
 //! stencil value into the cell's tangent plane first ([`advective_tendency_in_frame`]; a field
 //! of projectors then has zero tendency) and, since that turn of the frame along the path,
 //! `A = [n × (v·∇)n]_×`, is also in the material rotation of the stretching term, leaves it out
 //! there: `∇v → ∇v + A` in the convention of [`stretching`] (`L → L − A`). The squashed
 //! sphere's energy error falls from 2.31e-2 to 1.13e-2 at N = 32 and from 1.21e-2 to 8.73e-3
-//! at N = 64; together with the projection `Settings::tangential_gs` it gives 1.61e-3 at N = 64
+//! at N = 64; together with the projection `GsTransport::Tangential` it gives 1.61e-3 at N = 64
 //! and 5.84e-3 at N = 96, against 1.84e-2 with the paper's transport (`docs/validation/squashed_sphere.md`).
 //! Off by default.
 //!

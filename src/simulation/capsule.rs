@@ -40,7 +40,7 @@ pub(crate) struct Capsule<T: Real> {
     pub(crate) strain: Option<StrainTransport<T>>,
     /// Saved AB2 history of the advector (restored when a step fails).
     saved: (Option<T>, Vec<T>, Vec<T>),
-    /// The reference area `sum delta / j_s h^3` that [`Settings::conserve_reference_area`]
+    /// The reference area `sum delta / j_s h^3` that [`ReferenceArea::Conserved`]
     /// restores after each step (set from the initial state and by a pre-stretch); `None`
     /// without that setting or without elasticity.
     pub(crate) reference_target: Option<f64>,

@@ -519,7 +519,7 @@ impl<T: Real> Simulation<T> {
     /// reference length): `G_s = lambda^2 P` with the current normals, so that the capsule's
     /// reference state is smaller than its shape (`lambda > 1`, an inflated capsule) or larger.
     /// The reference area `sum delta / j_s h^3` this leaves is the one that
-    /// [`Settings::conserve_reference_area`] holds from then on.
+    /// [`ReferenceArea::Conserved`] holds from then on.
     ///
     /// # Errors
     /// `lambda` not finite and `> 0`; a scene without elasticity; an unknown capsule.
@@ -566,7 +566,7 @@ impl<T: Real> Simulation<T> {
     /// `j_s = sqrt(c2)` the local area dilation of `G_s` (`None` without elasticity). In the
     /// continuum it keeps its initial value; its drift measures how much the discrete
     /// transports of `G_s` (2.40) and of `phi` disagree on the change of area (with
-    /// [`Settings::conserve_reference_area`] the step holds it at its initial value).
+    /// [`ReferenceArea::Conserved`] the step holds it at its initial value).
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule.
