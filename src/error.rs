@@ -82,14 +82,17 @@ impl fmt::Display for Error {
             Error::NoConvergence { solver, iterations, residual, tolerance } => write!(
                 f,
                 "{solver} did not converge: residual {residual:.3e} after {iterations} iterations \
-                 (tolerance {tolerance:.1e}); reduce dt or raise the iteration limit"
+                 (tolerance {tolerance:.1e})"
             ),
             Error::NonFinite { field, cell } => {
-                write!(f, "non-finite value in field `{field}` at cell {cell:?}; reduce dt")
+                write!(f, "non-finite value in field `{field}` at cell {cell:?}")
             }
-            Error::Step { step, time, dt, source } => {
-                write!(f, "step {step} (from t = {time:e} with dt = {dt:e}) failed: {source}")
-            }
+            // The advice belongs to the context: only a time step can be retried with a smaller dt.
+            Error::Step { step, time, dt, source } => write!(
+                f,
+                "step {step} (from t = {time:e} with dt = {dt:e}) failed: {source}; the state is as before \
+                 the step: retry with a smaller dt (see simulation::stability for the limits)"
+            ),
             Error::Io { path, message } => write!(f, "I/O error on `{path}`: {message}"),
         }
     }

@@ -257,3 +257,20 @@ fn observers_watch_a_run_and_checkpoints_record_the_physics() {
     assert!(matches!(r.warning, Some(StepWarning::DtAboveLimit { limit: l, .. }) if l == limit));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// What a new user might try and the grid cannot carry: a capsule that overlaps its own periodic
+/// image, and a capsule smaller than a cell, are refused by `build`, naming the capsule.
+#[test]
+fn capsules_the_grid_cannot_carry_are_refused() {
+    let g = Grid::<f64>::periodic([16; 3], [0.0; 3], [4.0; 3]).unwrap(); // h = 0.25
+    let build = |r: f64| Scene::new(g.clone(), fluid()).capsule(Sphere::new([2.0; 3], r).unwrap()).build();
+    for r in [2.5, 0.2] {
+        let e = build(r);
+        assert!(
+            matches!(e, Err(Error::InvalidParameter { name: "capsule", .. })),
+            "radius {r}: {:?}",
+            e.err()
+        );
+    }
+    assert!(build(1.0).is_ok());
+}

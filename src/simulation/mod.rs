@@ -175,6 +175,7 @@ impl<T: Real> Simulation<T> {
             });
             let cap = Capsule::new(&grid, shape.as_ref(), &settings, needs)?;
             check_wall_distance(&grid, &cap.cur.phi, settings.smoothing.beta, c)?;
+            check_extent(&grid, &cap.cur.phi, c)?;
             capsules.push(cap);
         }
         let flow = FlowStepper::new(&grid, Materials::uniform(outside.rho, outside.mu)?, settings.flow)?;
@@ -694,6 +695,45 @@ fn external_power<T: Real>(
         e.add_force(state, v, f)?;
     }
     body_force_power(g, w, f)
+}
+
+/// Refuses a capsule that the grid cannot carry: one whose volume is below that of a sphere
+/// (a circle in 2D) of one cell's radius, and one that overlaps its own periodic image: every
+/// plane across a periodic axis holds some of its inside (`phi >= 1/2`; e.g. a radius of 2.5 in
+/// a period of 4).
+fn check_extent<T: Real>(grid: &Grid<T>, phi: &Field<T>, c: usize) -> Result<()> {
+    let h = grid.h().iter().fold(f64::INFINITY, |m, x| m.min(x.f64()));
+    let volume = crate::diagnostics::volume(grid, phi)?;
+    let smallest = if grid.is_2d() {
+        std::f64::consts::PI * h * h * grid.h()[2].f64()
+    } else {
+        4.0 / 3.0 * std::f64::consts::PI * h.powi(3)
+    };
+    if volume < smallest {
+        return Err(Error::invalid(
+            "capsule",
+            format!("capsule {c} of volume {volume:.3e}, less than a sphere of one cell's radius"),
+            "a capsule at least a cell in radius (a membrane needs several cells across)",
+        ));
+    }
+    let half = T::lit(0.5);
+    let n = grid.n();
+    for d in (0..3).filter(|&d| grid.is_periodic(d) && n[d] > 1) {
+        let mut touched = vec![false; n[d]];
+        for (i, j, k) in grid.cells() {
+            if phi.data[grid.idx_u(i, j, k)] >= half {
+                touched[[i, j, k][d]] = true;
+            }
+        }
+        if touched.iter().all(|&t| t) {
+            return Err(Error::invalid(
+                "capsule",
+                format!("capsule {c}: its inside spans the whole period along axis {d}"),
+                "a capsule shorter than the period (it would overlap its own periodic image)",
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses a capsule whose surface (`phi = 1/2`) comes within two profile widths (`2 h/beta`
