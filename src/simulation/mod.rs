@@ -175,7 +175,7 @@ impl<T: Real> Simulation<T> {
             });
             let cap = Capsule::new(&grid, shape.as_ref(), &settings, needs)?;
             check_wall_distance(&grid, &cap.cur.phi, settings.smoothing.beta, c)?;
-            check_extent(&grid, &cap.cur.phi, c)?;
+            check_extent(&grid, &cap.cur.phi, shape.volume(), c)?;
             capsules.push(cap);
         }
         let flow = FlowStepper::new(&grid, Materials::uniform(outside.rho, outside.mu)?, settings.flow)?;
@@ -697,22 +697,32 @@ fn external_power<T: Real>(
     body_force_power(g, w, f)
 }
 
-/// Refuses a capsule that the grid cannot carry: one whose volume is below that of a sphere
-/// (a circle in 2D) of one cell's radius, and one that overlaps its own periodic image: every
+/// Refuses a capsule that the grid cannot carry: one whose volume (the shape's where it is known
+/// exactly, `exact`; else that of `phi`) is below that of a sphere (a circle in 2D) of one
+/// cell's radius, and one that overlaps its own periodic image: every
 /// plane across a periodic axis holds some of its inside (`phi >= 1/2`; e.g. a radius of 2.5 in
 /// a period of 4).
-fn check_extent<T: Real>(grid: &Grid<T>, phi: &Field<T>, c: usize) -> Result<()> {
-    let h = grid.h().iter().fold(f64::INFINITY, |m, x| m.min(x.f64()));
-    let volume = crate::diagnostics::volume(grid, phi)?;
-    let smallest = if grid.is_2d() {
-        std::f64::consts::PI * h * h * grid.h()[2].f64()
+fn check_extent<T: Real>(grid: &Grid<T>, phi: &Field<T>, exact: Option<f64>, c: usize) -> Result<()> {
+    let h = grid.h().iter().take(if grid.is_2d() { 2 } else { 3 }).fold(f64::INFINITY, |m, x| m.min(x.f64()));
+    let (volume, smallest) = if grid.is_2d() {
+        let area = match exact {
+            Some(a) => a,
+            None => crate::diagnostics::volume(grid, phi)? / grid.h()[2].f64(),
+        };
+        (area, std::f64::consts::PI * h * h)
     } else {
-        4.0 / 3.0 * std::f64::consts::PI * h.powi(3)
+        let v = match exact {
+            Some(v) => v,
+            None => crate::diagnostics::volume(grid, phi)?,
+        };
+        (v, 4.0 / 3.0 * std::f64::consts::PI * h.powi(3))
     };
     if volume < smallest {
         return Err(Error::invalid(
             "capsule",
-            format!("capsule {c} of volume {volume:.3e}, less than a sphere of one cell's radius"),
+            format!(
+                "capsule {c} of volume {volume:.3e} (area in 2D), less than a sphere of one cell's radius"
+            ),
             "a capsule at least a cell in radius (a membrane needs several cells across)",
         ));
     }
