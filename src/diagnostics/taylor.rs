@@ -289,7 +289,7 @@ fn qr_lstsq(a: &Mat<f64>, b: &Mat<f64>) -> Option<[f64; 5]> {
     let col_max = (0..a.ncols()).map(|c| a.col(c).norm_l2()).fold(0.0, f64::max);
     let qr = a.qr();
     let r = qr.thin_R();
-    if (0..a.ncols()).any(|k| !(r[(k, k)].abs() > 1e-12 * col_max)) {
+    if (0..a.ncols()).any(|k| r[(k, k)].abs() <= 1e-12 * col_max || !r[(k, k)].is_finite()) {
         return None;
     }
     let x = qr.solve_lstsq(b);
