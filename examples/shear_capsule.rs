@@ -141,6 +141,8 @@ fn report(case: &ShearCase, o: &ShearOutcome) -> (f64, f64) {
         ("volume_drift", num(o.max_volume_drift)),
         ("steps", o.steps.to_string()),
         ("wall_s", format!("{:.1}", o.wall_s)),
+        ("d_ellipsoid", num(o.d_ellipsoid_steady)),
+        ("angle_ellipsoid_deg", format!("{:.2}", o.angle_ellipsoid_steady)),
     ]);
     (d_ref, rel)
 }

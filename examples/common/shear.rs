@@ -10,7 +10,7 @@
 #![allow(dead_code)]
 
 use eulermembrane::Real;
-use eulermembrane::diagnostics::taylor_deformation;
+use eulermembrane::diagnostics::{ellipsoid_fit, taylor_deformation};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::csv::CsvWriter;
@@ -100,6 +100,10 @@ pub struct ShearSample {
     pub volume_drift: f64,
     /// Predictor iterations of the step.
     pub iterations: usize,
+    /// `D = (a - c)/(a + c)` of the ellipsoid of equal volume and inertia (`ellipsoid_fit`).
+    pub d_ellipsoid: f64,
+    /// Inclination of that ellipsoid's longest axis in the x-z plane, from x towards z, degrees.
+    pub angle_ellipsoid_deg: f64,
 }
 
 /// What a run measured.
@@ -111,6 +115,10 @@ pub struct ShearOutcome {
     pub d_steady: f64,
     /// Mean inclination over the last time unit, degrees.
     pub angle_steady: f64,
+    /// Mean ellipsoid `D` over the last time unit.
+    pub d_ellipsoid_steady: f64,
+    /// Mean ellipsoid inclination over the last time unit, degrees.
+    pub angle_ellipsoid_steady: f64,
     /// Largest relative volume change.
     pub max_volume_drift: f64,
     /// Wall-clock seconds of the time loop.
@@ -189,6 +197,7 @@ pub fn run<T: Real>(
             max_drift = max_drift.max(drift);
             let centre = sim.centroid(0)?;
             let td = taylor_deformation(sim.grid(), sim.phi(0)?, centre, 1)?;
+            let ef = ellipsoid_fit(sim.grid(), sim.phi(0)?)?;
             let sample = ShearSample {
                 t,
                 d: td.deformation,
@@ -196,6 +205,9 @@ pub fn run<T: Real>(
                 area_ratio: sim.area(0)? / a0,
                 volume_drift: drift,
                 iterations,
+                d_ellipsoid: ef.deformation(),
+                // NaN where the longest axis is not in the x-z plane (the sphere at t = 0).
+                angle_ellipsoid_deg: ef.inclination_deg(1).unwrap_or(f64::NAN),
             };
             if let Some(h) = history.as_mut() {
                 h.row(&[t, sample.d, sample.angle_deg, sample.area_ratio, drift, iterations as f64])?;
@@ -241,6 +253,8 @@ pub fn run<T: Real>(
     Ok(ShearOutcome {
         d_steady: mean(|s| s.d),
         angle_steady: mean(|s| s.angle_deg),
+        d_ellipsoid_steady: mean(|s| s.d_ellipsoid),
+        angle_ellipsoid_steady: mean(|s| s.angle_ellipsoid_deg),
         max_volume_drift: max_drift,
         wall_s,
         cpu_s,

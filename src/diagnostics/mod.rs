@@ -9,6 +9,7 @@
 //! | area transport (3.6)-(3.7) | `s^{n+1} = s^n - dt sum delta n.grad v.n dx dy dz` | [`AreaTracker`] |
 //! | surface modes (3.2)-(3.4) | `R_{n,m} = sum delta w Y_{n,m}(theta, varphi) dx dy dz` | [`surface_modes`] |
 //! | Taylor deformation (Sec. 3.3.1) | `D = (L - B)/(L + B)` of an ellipse fitted to `phi = 1/2` | [`taylor_deformation`] |
+//! | ellipsoid of inertia | `D = (a - c)/(a + c)` of the ellipsoid with the volume and second moments of `phi` | [`ellipsoid_fit`] |
 //! | energy budget (Sec. 3.2) | `E_kin + E_el + int mu grad v : grad v dt - int v.F dt` | [`EnergyBudget`] |
 //! | membrane velocity on a mode | `c = sum delta v.m / sum delta m.m` | [`surface_velocity_projection`] |
 //! | velocity profiles (Fig. 17) | `<u>(y)` averaged over x (and z) | [`streamwise_profile`] |
@@ -26,7 +27,7 @@
 //! - a field of the wrong size is an [`Error::InvalidParameter`](crate::Error), a NaN or an
 //!   infinity that reaches a result is an [`Error::NonFinite`](crate::Error) naming the field and
 //!   the first cell that holds one;
-//! - functions about "the capsule" (centroid, modes, Taylor deformation) assume the fields hold
+//! - functions about "the capsule" (centroid, modes, Taylor deformation, ellipsoid fit) assume the fields hold
 //!   one capsule; with several capsules, pass a `phi`/`delta` masked to one of them.
 //!
 //! Each submodule opens with the equations it implements; everything public is re-exported here.
@@ -37,6 +38,7 @@
 //! spans less than half the period along that axis.
 
 pub mod area;
+pub mod ellipsoid;
 pub mod energy;
 pub mod mobility;
 pub mod modes;
@@ -47,6 +49,7 @@ pub mod taylor;
 pub mod volume;
 
 pub use area::{AreaTracker, area_from_delta, dilation_rate};
+pub use ellipsoid::{EllipsoidFit, ellipsoid_fit};
 pub use energy::{
     DissipationForm, EnergyBudget, EnergySample, EnergyState, StepIntegrals, body_force_power,
     elastic_energy, kinetic_energy, viscous_dissipation,
