@@ -202,7 +202,10 @@ pub fn check_stress_free<T: Real, L: SurfaceLaw<T> + ?Sized>(law: &L) -> Result<
     if !(mu > T::zero() && k > T::zero()) {
         return Err(Error::invalid(
             "law",
-            format!("`{}` with small-strain shear modulus mu = {mu:e} and area modulus K = {k:e}", law.name()),
+            format!(
+                "`{}` with small-strain shear modulus mu = {mu:e} and area modulus K = {k:e}",
+                law.name()
+            ),
             "a law with a stable reference state: mu = 2 W_1 > 0 and K = 4 (W_11 + 2 W_12 + W_22) - 2 W_1 > 0 \
              at (c1, c2) = (1, 1)",
         ));
