@@ -93,7 +93,7 @@
 //!
 //! proptest! {
 //!     #![proptest_config(config())]
-//!     #[test]
+//!     // In a test file, put #[test] here.
 //!     fn skalak_passes(es in 0.1f64..10.0, alpha in 0.0f64..50.0, probe in arb_probe()) {
 //!         check_at(&Skalak::new(es, alpha)?, &probe)?;
 //!     }
@@ -460,7 +460,7 @@ impl<'a, L: SurfaceLaw<f64> + ?Sized> Checker<'a, L> {
     ) -> Result<(), LawCheckError> {
         let tolerance = property.tolerance();
         let measure = || Measure { property, error, tolerance, at: at() };
-        if !(error <= tolerance) {
+        if matches!(error.partial_cmp(&tolerance), None | Some(std::cmp::Ordering::Greater)) {
             return Err(LawCheckError::Failed { law: self.law.name().to_string(), measure: measure() });
         }
         let slot = &mut self.worst[property as usize];

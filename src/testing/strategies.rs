@@ -46,7 +46,8 @@ pub fn arb_unit() -> impl Strategy<Value = Vec3<f64>> {
 ///     let qqt = matmul(&q, &transpose(&q));
 ///     for i in 0..3 {
 ///         for j in 0..3 {
-///             prop_assert!((qqt[i][j] - if i == j { 1.0 } else { 0.0 }).abs() < 1e-14);
+///             let delta = if i == j { 1.0 } else { 0.0 };
+///             prop_assert!((qqt[i][j] - delta).abs() < 1e-14);
 ///         }
 ///     }
 /// });
