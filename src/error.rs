@@ -110,12 +110,40 @@ impl std::error::Error for Error {
 /// Result type of the crate.
 pub type Result<T> = std::result::Result<T, Error>;
 
-/// Returns `Ok(x)` if `x` is finite and strictly positive, else an [`Error::InvalidParameter`].
-pub(crate) fn positive<T: crate::Real>(name: &'static str, x: T) -> Result<T> {
+/// Validates a parameter that must be finite and strictly positive: `Ok(x)`, or an
+/// [`Error::InvalidParameter`] naming `name`, the value and `"a finite number > 0"`.
+///
+/// For the constructors of users' own types (e.g. a [`SurfaceLaw`](crate::membrane::SurfaceLaw)),
+/// so that their errors read like the crate's.
+///
+/// # Example
+/// ```
+/// use eulermembrane::error::{Error, positive};
+///
+/// assert_eq!(positive("gs", 2.0), Ok(2.0));
+/// match positive("gs", -1.0) {
+///     Err(Error::InvalidParameter { name, value, allowed }) => {
+///         assert_eq!((name, value.as_str(), allowed), ("gs", "-1", "a finite number > 0"));
+///     }
+///     other => panic!("{other:?}"),
+/// }
+/// assert!(positive("gs", f64::NAN).is_err() && positive("gs", 0.0f32).is_err());
+/// ```
+pub fn positive<T: crate::Real>(name: &'static str, x: T) -> Result<T> {
     if x.is_finite() && x > T::zero() { Ok(x) } else { Err(Error::invalid(name, x, "a finite number > 0")) }
 }
 
-/// Returns `Ok(x)` if `x` is finite, else an [`Error::InvalidParameter`].
-pub(crate) fn finite<T: crate::Real>(name: &'static str, x: T) -> Result<T> {
+/// Validates a parameter that must be finite (not NaN, not infinite): `Ok(x)`, or an
+/// [`Error::InvalidParameter`] naming `name`, the value and `"a finite number"`.
+///
+/// # Example
+/// ```
+/// use eulermembrane::error::finite;
+///
+/// assert_eq!(finite("psi", -0.5), Ok(-0.5));
+/// let e = finite("psi", f64::INFINITY).unwrap_err();
+/// assert_eq!(e.to_string(), "invalid parameter `psi` = inf: allowed is a finite number");
+/// ```
+pub fn finite<T: crate::Real>(name: &'static str, x: T) -> Result<T> {
     if x.is_finite() { Ok(x) } else { Err(Error::invalid(name, x, "a finite number")) }
 }

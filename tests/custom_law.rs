@@ -1,6 +1,6 @@
 //! A user-defined membrane law, written with the public API only, gets the stress (2.4), the
-//! Jacobian (2.33) and the simple-loading solvers for free — and is checked here against finite
-//! differences of its own energy.
+//! Jacobian (2.33) and the simple-loading solvers for free — and is checked here with the
+//! `eulermembrane::testing` harness, exactly as a downstream crate would check its own law.
 //!
 //! The law is the membrane Mooney–Rivlin law (Barthès-Biesel, Diaz & Dhenin 2002), written in
 //! the invariants (2.3) of the paper with `λ1² + λ2² = c1 + 1`, `λ1² λ2² = c2` and
@@ -14,14 +14,18 @@
 //! derivative `W_c1c2 = −ψ G_s/(2 c2²)` is not zero, which exercises the term that the paper's
 //! (B.4) drops.
 
-mod common;
-use common::{rodrigues, sphere};
-use eulermembrane::Real;
+use eulermembrane::error::{Error, positive};
+use eulermembrane::membrane::law::check_stress_free;
 use eulermembrane::membrane::{
-    NeoHookean, SurfaceLaw, energy_density, jacobian, principal_tensions, small_strain_moduli, stress,
-    stress_and_jacobian, tension_invariants, uniaxial_tension,
+    NeoHookean, SurfaceLaw, jacobian, small_strain_moduli, stress, stress_and_jacobian, tension_invariants,
+    uniaxial_tension,
 };
-use eulermembrane::tensor::{Mat3, Sym, Vec3, ddot, mat_to_sym, matmul, transpose};
+use eulermembrane::tensor::Sym;
+use eulermembrane::testing::{
+    LawCheckError, MembraneState, Property, arb_probe, check_at, check_derivatives, check_law, config,
+    rotation,
+};
+use eulermembrane::{Real, Result};
 use proptest::prelude::*;
 
 /// Membrane Mooney–Rivlin law (see the file docs). Generic over the float type.
@@ -29,6 +33,16 @@ use proptest::prelude::*;
 struct MooneyRivlin<T> {
     gs: T,
     psi: T,
+}
+
+impl<T: Real> MooneyRivlin<T> {
+    /// Shear modulus `gs > 0`, `0 ≤ psi ≤ 1`, validated as the crate validates its own laws.
+    fn new(gs: T, psi: T) -> Result<Self> {
+        if !(psi >= T::zero() && psi <= T::one()) {
+            return Err(Error::invalid("psi", psi, "a number in [0, 1]"));
+        }
+        Ok(Self { gs: positive("gs", gs)?, psi })
+    }
 }
 
 impl<T: Real> SurfaceLaw<T> for MooneyRivlin<T> {
@@ -60,103 +74,106 @@ impl<T: Real> SurfaceLaw<T> for MooneyRivlin<T> {
 }
 
 fn law(gs: f64, psi: f64) -> MooneyRivlin<f64> {
-    MooneyRivlin { gs, psi }
+    MooneyRivlin::new(gs, psi).unwrap()
 }
 
-/// `Q diag(a, b, 0) Qᵀ` and `Q e3`: a flat sheet with principal stretches `√a`, `√b`, rotated.
-fn rotated_sheet(q: &Mat3<f64>, a: f64, b: f64) -> (Sym<f64>, Vec3<f64>) {
-    let d = [[a, 0.0, 0.0], [0.0, b, 0.0], [0.0, 0.0, 0.0]];
-    let g = mat_to_sym(&matmul(&matmul(q, &d), &transpose(q)));
-    (g, [q[0][2], q[1][2], q[2][2]])
+/// The whole check of a user law: reference state, derivatives against finite differences of
+/// the energy, stress, Jacobian, `H`, objectivity and power at 50 fixed probes.
+#[test]
+fn mooney_rivlin_passes_the_law_check() {
+    for (gs, psi) in [(0.1, 0.0), (1.0, 0.3), (10.0, 1.0)] {
+        let report = check_law(&law(gs, psi)).unwrap();
+        assert_eq!(report.points, 50);
+        assert!(report.worst(Property::Hessian).unwrap().error < 2e-9, "{report}");
+    }
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(config())]
 
-    /// The law's own derivatives agree with central differences of its energy.
+    /// The law's own derivatives agree with finite differences of its energy, also at
+    /// invariants that no pair of stretches reaches.
     #[test]
     fn derivatives_match_energy(
         gs in 0.1f64..10.0, psi in 0.0f64..=1.0, c1 in 0.3f64..8.0, c2 in 0.1f64..8.0,
     ) {
-        let m = law(gs, psi);
-        let h = 1e-5;
-        let w = |a: f64, b: f64| m.energy(a, b);
-        let g = |a: f64, b: f64| m.gradient(a, b);
-        let [w1, w2] = m.gradient(c1, c2);
-        let [w11, w12, w22] = m.hessian(c1, c2);
-        let fd = [
-            (w(c1 + h, c2) - w(c1 - h, c2)) / (2.0 * h),
-            (w(c1, c2 + h) - w(c1, c2 - h)) / (2.0 * h),
-            (g(c1 + h, c2)[0] - g(c1 - h, c2)[0]) / (2.0 * h),
-            (g(c1, c2 + h)[0] - g(c1, c2 - h)[0]) / (2.0 * h),
-            (g(c1 + h, c2)[1] - g(c1 - h, c2)[1]) / (2.0 * h),
-            (g(c1, c2 + h)[1] - g(c1, c2 - h)[1]) / (2.0 * h),
-        ];
-        let exact = [w1, w2, w11, w12, w12, w22];
-        let scale = exact.iter().fold(gs, |s, x| s.max(x.abs()));
-        for (e, f) in exact.iter().zip(fd.iter()) {
-            prop_assert!((e - f).abs() <= 1e-6 * scale, "{} vs {}", e, f);
+        check_derivatives(&law(gs, psi), c1, c2)?;
+    }
+
+    /// Every property of the harness at random states (stretches in [0.5, 2], oblique normals,
+    /// random rotations and velocity gradients): among them the tensions are the derivatives
+    /// of the energy, and the Jacobian, mixed-derivative terms included, matches finite
+    /// differences of the stress.
+    #[test]
+    fn passes_at_random_probes(gs in 0.1f64..10.0, psi in 0.0f64..=1.0, probe in arb_probe()) {
+        let report = check_at(&law(gs, psi), &probe)?;
+        // With the default `derivatives`, `stress_and_jacobian` gives exactly `stress`.
+        prop_assert_eq!(report.worst(Property::Derivatives).map(|m| m.error), Some(0.0));
+    }
+}
+
+/// The harness refuses a law with a sign error in its Hessian, naming the property, and a law
+/// that is not stress free at rest, naming the law.
+#[test]
+fn wrong_laws_are_refused() {
+    /// `W_12` with the wrong sign (the moduli stay positive, so only the check finds it).
+    struct SignError(MooneyRivlin<f64>);
+    impl SurfaceLaw<f64> for SignError {
+        fn name(&self) -> &str {
+            "mooney_rivlin_sign_error"
+        }
+        fn energy(&self, c1: f64, c2: f64) -> f64 {
+            self.0.energy(c1, c2)
+        }
+        fn gradient(&self, c1: f64, c2: f64) -> [f64; 2] {
+            self.0.gradient(c1, c2)
+        }
+        fn hessian(&self, c1: f64, c2: f64) -> [f64; 3] {
+            let [a, b, c] = self.0.hessian(c1, c2);
+            [a, -b, c]
         }
     }
-
-    /// The stress computed by the library from the law's derivatives is the derivative of the
-    /// law's energy: for a sheet with principal stretches `λ1`, `λ2` (rotated arbitrarily),
-    /// the principal tensions are `T1 = (1/λ2) ∂W/∂λ1` and `T2 = (1/λ1) ∂W/∂λ2` (power
-    /// `Ẇ = T1 λ2 λ̇1 + T2 λ1 λ̇2` per unit reference area), with `∂W/∂λ_i` by central
-    /// differences of `W(c1(λ), c2(λ))` through [`energy_density`].
-    #[test]
-    fn stress_is_energy_derivative(
-        gs in 0.1f64..10.0, psi in 0.0f64..=1.0,
-        l1 in 0.5f64..=2.0, l2 in 0.5f64..=2.0,
-        axis_z in -1.0f64..=1.0, axis_phi in 0.0f64..std::f64::consts::TAU,
-        angle in 0.0f64..std::f64::consts::TAU,
-    ) {
-        let m = law(gs, psi);
-        let q = rodrigues(sphere(axis_z, axis_phi), angle);
-        let w = |a: f64, b: f64| {
-            let (g, n) = rotated_sheet(&q, a * a, b * b);
-            energy_density(&m, &g, &n)
-        };
-        let h = 1e-6;
-        let t1 = (w(l1 + h, l2) - w(l1 - h, l2)) / (2.0 * h) / l2;
-        let t2 = (w(l1, l2 + h) - w(l1, l2 - h)) / (2.0 * h) / l1;
-        let (g, n) = rotated_sheet(&q, l1 * l1, l2 * l2);
-        let tau = stress(&m, &g, &n);
-        let (ta, tb) = principal_tensions(&tau, &n);
-        let (e1, e2) = (t1.max(t2), t1.min(t2));
-        let tol = 1e-7 * (gs + ta.abs() + tb.abs());
-        prop_assert!((ta - e1).abs() <= tol && (tb - e2).abs() <= tol,
-            "({}, {}) vs FD ({}, {})", ta, tb, e1, e2);
-        // Directly in the sheet axes too: τ : (Q e1 e1 Qᵀ) = T1.
-        let e1e1 = mat_to_sym(&matmul(&matmul(&q, &[[1.0, 0.0, 0.0], [0.0; 3], [0.0; 3]]), &transpose(&q)));
-        prop_assert!((ddot(&tau, &e1e1) - t1).abs() <= tol);
+    match check_law(&SignError(law(1.0, 0.3))) {
+        Err(LawCheckError::Failed { law, measure }) => {
+            assert_eq!((law.as_str(), measure.property), ("mooney_rivlin_sign_error", Property::Hessian));
+            // 2 |W_12| relative to the largest second derivative, W_22, at the first probe: 2.2e-2.
+            assert!(measure.error > 1e-2 && measure.tolerance == 2e-9, "{measure}");
+        }
+        other => panic!("{other:?}"),
     }
 
-    /// The Jacobian, including the mixed-derivative terms, matches finite differences of the
-    /// stress for a general (non-in-plane) perturbation of `G_s` and an oblique normal.
-    #[test]
-    fn jacobian_matches_finite_differences(
-        gs in 0.1f64..10.0, psi in 0.0f64..=1.0,
-        l1 in 0.5f64..=2.0, l2 in 0.5f64..=2.0,
-        axis_z in -1.0f64..=1.0, axis_phi in 0.0f64..std::f64::consts::TAU,
-        angle in 0.0f64..std::f64::consts::TAU,
-    ) {
-        let m = law(gs, psi);
-        let q = rodrigues(sphere(axis_z, axis_phi), angle);
-        let (g, n) = rotated_sheet(&q, l1 * l1, l2 * l2);
-        let (tau, j) = stress_and_jacobian(&m, &g, &n);
-        prop_assert_eq!(tau, stress(&m, &g, &n));
-        let jmax = j.iter().flatten().fold(0.0f64, |s, x| s.max(x.abs()));
-        let h = 1e-6;
-        for b in 0..6 {
-            let (mut gp, mut gm) = (g, g);
-            gp[b] += h;
-            gm[b] -= h;
-            let (tp, tm) = (stress(&m, &gp, &n), stress(&m, &gm, &n));
-            for a in 0..6 {
-                let fd = (tp[a] - tm[a]) / (2.0 * h);
-                prop_assert!((fd - j[a][b]).abs() <= 1e-6 * jmax);
-            }
+    /// `W_2` without the `ψ` term: a tension `τ = ψ G_s P` at rest.
+    struct Tense(MooneyRivlin<f64>);
+    impl SurfaceLaw<f64> for Tense {
+        fn name(&self) -> &str {
+            "mooney_rivlin_tense"
+        }
+        fn energy(&self, c1: f64, c2: f64) -> f64 {
+            self.0.energy(c1, c2)
+        }
+        fn gradient(&self, c1: f64, c2: f64) -> [f64; 2] {
+            let [a, b] = self.0.gradient(c1, c2);
+            [a, b - 0.5 * self.0.gs * self.0.psi]
+        }
+        fn hessian(&self, c1: f64, c2: f64) -> [f64; 3] {
+            self.0.hessian(c1, c2)
+        }
+    }
+    let tense = Tense(law(1.0, 0.3));
+    let e = check_law(&tense).unwrap_err().to_string();
+    assert!(e.contains("`law`") && e.contains("`mooney_rivlin_tense`") && e.contains("stress free"), "{e}");
+    assert_eq!(LawCheckError::Invalid(check_stress_free(&tense).unwrap_err()).to_string(), e);
+}
+
+/// The constructor refuses bad parameters with the crate's errors.
+#[test]
+fn constructor_validates() {
+    for (gs, psi, name) in
+        [(0.0, 0.5, "gs"), (f64::NAN, 0.5, "gs"), (1.0, 1.5, "psi"), (1.0, f64::NAN, "psi")]
+    {
+        match MooneyRivlin::new(gs, psi) {
+            Err(Error::InvalidParameter { name: n, .. }) => assert_eq!(n, name),
+            other => panic!("{other:?}"),
         }
     }
 }
@@ -166,8 +183,15 @@ proptest! {
 fn psi_zero_is_neo_hookean() {
     let m = law(0.7, 0.0);
     let nh = NeoHookean::new(2.1).unwrap();
-    let q = rodrigues([0.48, 0.6, 0.64], 1.1);
-    let (g, n) = rotated_sheet(&q, 1.7, 0.6);
+    let q = rotation([0.48, 0.6, 0.64], 1.1);
+    let s = MembraneState::stretched(
+        q,
+        [1.7f64.sqrt(), 0.6f64.sqrt(), 1.0],
+        rotation([0.0, 0.0, 1.0], 0.0),
+        [0.0, 0.0, 1.0],
+    )
+    .unwrap();
+    let (g, n) = (s.g(), s.n());
     let (ta, ja) = stress_and_jacobian(&m, &g, &n);
     let (tb, jb) = stress_and_jacobian(&nh, &g, &n);
     for a in 0..6 {
@@ -192,6 +216,7 @@ fn small_strain_moduli_and_reference_state() {
         let n = [0.0, 0.6, 0.8];
         let p = eulermembrane::tensor::projector(&n);
         assert!(stress(&m, &p, &n).iter().all(|x| x.abs() < 1e-14));
+        check_stress_free(&m).unwrap();
     }
 }
 
@@ -218,7 +243,8 @@ fn uniaxial_tension_of_custom_law() {
 /// The same law in `f32`, through a trait object: the API is generic over the float type.
 #[test]
 fn custom_law_in_f32() {
-    let m: &dyn SurfaceLaw<f32> = &MooneyRivlin { gs: 1.0f32, psi: 0.5 };
+    let m: &dyn SurfaceLaw<f32> = &MooneyRivlin::new(1.0f32, 0.5).unwrap();
+    check_stress_free(m).unwrap();
     let g: Sym<f32> = [1.44, 1.0, 0.0, 0.0, 0.0, 0.0];
     let n = [0.0f32, 0.0, 1.0];
     let tau = stress(m, &g, &n);

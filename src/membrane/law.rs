@@ -35,8 +35,11 @@
 //! `W_1 + W_2 = 0` there. Neo-Hookean: `μ = E_s/3`, `K = E_s = 3 μ`. Skalak:
 //! `μ = E_s/2`, `K = μ (1 + 2α)`.
 
+use std::sync::Arc;
+
 use crate::Real;
 use crate::error::{Error, Result, positive};
+use crate::tensor::projector;
 
 /// A hyperelastic surface (membrane) strain-energy law `W_s(c1, c2)`.
 ///
@@ -46,10 +49,15 @@ use crate::error::{Error, Result, positive};
 /// simple-loading solvers) is derived from them. The mixed derivative `W_c1c2` is used in
 /// general (the paper's (B.4) assumes it vanishes, which holds for (2.5) and (2.6) only).
 ///
-/// Requirements for a physically meaningful law (not checked by the trait):
+/// Requirements for a physically meaningful law (not checked by the trait; checked by
+/// [`check_stress_free`], and with the derivatives against finite differences by
+/// `eulermembrane::testing::check_law` behind the `testing` feature):
 /// - stress-free reference state: `W_c1(1, 1) + W_c2(1, 1) = 0`
 ///   (otherwise `τ ≠ 0` at `G_s = P`);
 /// - positive small-strain shear and area moduli (see [`small_strain_moduli`]).
+///
+/// The trait is implemented for `&L`, `Box<L>` and `Arc<L>` of any law `L` (also
+/// `dyn SurfaceLaw<T>`), so that a boxed or shared law can be passed where a law is expected.
 ///
 /// The derivatives are called only with `c2 > 0`. Implementations must not panic.
 ///
@@ -118,6 +126,123 @@ pub fn small_strain_moduli<T: Real, L: SurfaceLaw<T> + ?Sized>(law: &L) -> (T, T
     let four = T::lit(4.0);
     (two * w1, four * (w11 + two * w12 + w22) - two * w1)
 }
+
+/// Relative tolerance of [`check_stress_free`] on the stress at rest, in machine epsilons:
+/// `|W_1 + W_2| ≤ 256 ε (|W_1| + |W_2|)` at `(c1, c2) = (1, 1)` (f64: 5.7e-14; f32: 3.1e-5).
+/// The paper's laws give exactly zero; a law with a mistake gives a residual of order one.
+const STRESS_FREE_EPS: f64 = 256.0;
+
+/// Refuses a law whose reference state is not a stable, stress-free state: a cheap check (one
+/// evaluation of the derivatives), for wherever a law is accepted, e.g. when a scene is built.
+///
+/// Checks, at the reference state `(c1, c2) = (1, 1)` (`G_s = P`, no deformation):
+/// - the gradient and Hessian are finite;
+/// - the stress (2.4) at `G_s = P`, computed by [`stress`](super::stress::stress), which is
+///   `τ = 2 (W_1 + W_2) P`, vanishes: `|W_1 + W_2| ≤ 256 ε (|W_1| + |W_2|)` (round-off only;
+///   `ε` the machine epsilon of `T`);
+/// - the small-strain moduli of [`small_strain_moduli`] are positive: shear `μ = 2 W_1 > 0` and
+///   area dilation `K > 0` (otherwise the reference state is unstable).
+///
+/// It does not check the derivatives against the energy: `eulermembrane::testing::check_law`
+/// (feature `testing`) does.
+///
+/// # Errors
+/// [`Error::InvalidParameter`] with name `"law"`, a value that names the law (its
+/// [`SurfaceLaw::name`]) and the offending numbers, and the requirement as allowed.
+///
+/// # Example
+/// ```
+/// use eulermembrane::membrane::law::{NeoHookean, SurfaceLaw, check_stress_free};
+///
+/// assert!(check_stress_free(&NeoHookean::new(3.0)?).is_ok());
+///
+/// /// A neo-Hookean law with a sign error in W_2: under tension at rest.
+/// struct Wrong;
+/// impl SurfaceLaw<f64> for Wrong {
+///     fn name(&self) -> &str { "wrong" }
+///     fn energy(&self, c1: f64, c2: f64) -> f64 { 0.5 * (c1 - 1.0 / c2 - 2.0) }
+///     fn gradient(&self, _c1: f64, c2: f64) -> [f64; 2] { [0.5, 0.5 / (c2 * c2)] }
+///     fn hessian(&self, _c1: f64, c2: f64) -> [f64; 3] { [0.0, 0.0, -1.0 / (c2 * c2 * c2)] }
+/// }
+/// let e = check_stress_free(&Wrong).unwrap_err().to_string();
+/// assert!(e.contains("`law`") && e.contains("`wrong`") && e.contains("stress free"), "{e}");
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
+pub fn check_stress_free<T: Real, L: SurfaceLaw<T> + ?Sized>(law: &L) -> Result<()> {
+    let one = T::one();
+    let ([w1, w2], [w11, w12, w22]) = law.derivatives(one, one);
+    if ![w1, w2, w11, w12, w22].iter().all(|x| x.is_finite()) {
+        return Err(Error::invalid(
+            "law",
+            format!(
+                "`{}` with gradient [{w1:e}, {w2:e}] and Hessian [{w11:e}, {w12:e}, {w22:e}] at \
+                 (c1, c2) = (1, 1)",
+                law.name()
+            ),
+            "a law with finite first and second derivatives at the reference state (c1, c2) = (1, 1)",
+        ));
+    }
+    // The reference state G_s = P of a flat sheet with normal e3: τ = 2 (W_1 + W_2) P.
+    let n = [T::zero(), T::zero(), one];
+    let tension = super::stress::stress(law, &projector(&n), &n)[0];
+    let terms = T::lit(2.0) * (w1.abs() + w2.abs());
+    // A NaN residual is refused too.
+    let bound = T::lit(STRESS_FREE_EPS) * T::eps() * terms;
+    if matches!(tension.abs().partial_cmp(&bound), None | Some(std::cmp::Ordering::Greater)) {
+        return Err(Error::invalid(
+            "law",
+            format!(
+                "`{}` with stress tau = {tension:e} P at rest (tau = 2 (W_1 + W_2) P, \
+                 W_1 = {w1:e}, W_2 = {w2:e} at (c1, c2) = (1, 1))",
+                law.name()
+            ),
+            "a law whose reference state G_s = P is stress free: W_1 + W_2 = 0 at (c1, c2) = (1, 1), \
+             to 256 machine epsilons of |W_1| + |W_2|",
+        ));
+    }
+    let (mu, k) = small_strain_moduli(law);
+    if !(mu > T::zero() && k > T::zero()) {
+        return Err(Error::invalid(
+            "law",
+            format!(
+                "`{}` with small-strain shear modulus mu = {mu:e} and area modulus K = {k:e}",
+                law.name()
+            ),
+            "a law with a stable reference state: mu = 2 W_1 > 0 and K = 4 (W_11 + 2 W_12 + W_22) - 2 W_1 > 0 \
+             at (c1, c2) = (1, 1)",
+        ));
+    }
+    Ok(())
+}
+
+/// Forwards every method, the overridable [`SurfaceLaw::derivatives`] included.
+macro_rules! forward_surface_law {
+    ($($ptr:ty),*) => {$(
+        impl<T: Real, L: SurfaceLaw<T> + ?Sized> SurfaceLaw<T> for $ptr {
+            fn name(&self) -> &str {
+                (**self).name()
+            }
+            #[inline]
+            fn energy(&self, c1: T, c2: T) -> T {
+                (**self).energy(c1, c2)
+            }
+            #[inline]
+            fn gradient(&self, c1: T, c2: T) -> [T; 2] {
+                (**self).gradient(c1, c2)
+            }
+            #[inline]
+            fn hessian(&self, c1: T, c2: T) -> [T; 3] {
+                (**self).hessian(c1, c2)
+            }
+            #[inline]
+            fn derivatives(&self, c1: T, c2: T) -> ([T; 2], [T; 3]) {
+                (**self).derivatives(c1, c2)
+            }
+        }
+    )*};
+}
+
+forward_surface_law!(&L, Box<L>, Arc<L>);
 
 /// Neo-Hookean membrane, eq. (2.5): `W_s = (E_s/6)(c1 + 1/c2 − 2)`.
 ///
@@ -394,6 +519,76 @@ mod tests {
         assert!(Skalak::new(1.0, 0.0).is_ok());
         let e = NeoHookean::new(-2.0).unwrap_err().to_string();
         assert!(e.contains("es") && e.contains("-2") && e.contains("> 0"), "{e}");
+    }
+
+    /// A law with constant derivatives, for the reference-state checks.
+    struct Fixed([f64; 2], [f64; 3]);
+
+    impl SurfaceLaw<f64> for Fixed {
+        fn name(&self) -> &str {
+            "fixed"
+        }
+        fn energy(&self, c1: f64, c2: f64) -> f64 {
+            self.0[0] * c1 + self.0[1] * c2
+        }
+        fn gradient(&self, _c1: f64, _c2: f64) -> [f64; 2] {
+            self.0
+        }
+        fn hessian(&self, _c1: f64, _c2: f64) -> [f64; 3] {
+            self.1
+        }
+    }
+
+    #[test]
+    fn check_stress_free_accepts_the_paper_laws_and_refuses_bad_ones() {
+        check_stress_free(&NeoHookean::new(2.0f64).unwrap()).unwrap();
+        check_stress_free(&Skalak::new(2.0f64, 0.0).unwrap()).unwrap();
+        check_stress_free(&Skalak::new(1.0f32, 1e4).unwrap()).unwrap();
+        // Stress free, stable: mu = 1, K = 4 (1/2) - 1 = 1.
+        check_stress_free(&Fixed([0.5, -0.5], [0.0, 0.0, 0.5])).unwrap();
+        let refused = |law: &Fixed, what: &str| match check_stress_free(law) {
+            Err(Error::InvalidParameter { name, value, allowed }) => {
+                assert_eq!(name, "law");
+                assert!(value.contains("`fixed`"), "{value}");
+                assert!(allowed.contains(what), "{allowed}");
+            }
+            other => panic!("expected a refusal ({what}), got {other:?}"),
+        };
+        // Residual tension tau = 2 (W_1 + W_2) P = 0.2 P.
+        refused(&Fixed([0.5, -0.4], [0.0, 0.0, 0.5]), "stress free");
+        // A residual of 1e-12 of the terms is more than round-off.
+        refused(&Fixed([0.5, -0.5 + 1e-12], [0.0, 0.0, 0.5]), "stress free");
+        // Negative shear modulus mu = 2 W_1, negative area modulus K.
+        refused(&Fixed([-0.5, 0.5], [0.0, 0.0, 0.5]), "mu = 2 W_1 > 0");
+        refused(&Fixed([0.5, -0.5], [0.0, 0.0, 0.1]), "K = 4");
+        refused(&Fixed([0.5, f64::NAN], [0.0, 0.0, 0.1]), "finite");
+        refused(&Fixed([0.5, -0.5], [0.0, f64::INFINITY, 0.1]), "finite");
+        let e = check_stress_free(&Fixed([0.5, -0.4], [0.0, 0.0, 0.5])).unwrap_err().to_string();
+        assert!(e.contains("W_1 = 5e-1, W_2 = -4e-1"), "{e}");
+    }
+
+    #[test]
+    fn references_boxes_and_arcs_are_laws() {
+        fn moduli<L: SurfaceLaw<f64>>(law: L) -> (String, (f64, f64), f64) {
+            (law.name().to_string(), small_strain_moduli(&law), law.energy(1.5, 2.0))
+        }
+        let sk = Skalak::new(2.0, 4.0).unwrap();
+        let expect = moduli(sk);
+        assert_eq!(expect.1, (1.0, 9.0));
+        assert_eq!(moduli::<&Skalak<f64>>(&sk), expect);
+        assert_eq!(moduli(Box::new(sk)), expect);
+        assert_eq!(moduli(Arc::new(sk)), expect);
+        let boxed: Box<dyn SurfaceLaw<f64>> = Box::new(sk);
+        assert_eq!(moduli(&*boxed), expect);
+        assert_eq!(moduli(boxed), expect);
+        let shared: Arc<dyn SurfaceLaw<f64>> = Arc::new(sk);
+        assert_eq!(moduli(Arc::clone(&shared)), expect);
+        assert_eq!(moduli(&shared), expect);
+        // `derivatives` is forwarded, not recomputed by the default.
+        let nh = NeoHookean::new(3.0).unwrap();
+        assert_eq!(Box::new(nh).derivatives(0.7, 1.3), nh.derivatives(0.7, 1.3));
+        assert_eq!(<&NeoHookean<f64> as SurfaceLaw<f64>>::gradient(&&nh, 0.7, 1.3), nh.gradient(0.7, 1.3));
+        assert_eq!(Arc::new(nh).hessian(0.7, 1.3), nh.hessian(0.7, 1.3));
     }
 
     #[test]
