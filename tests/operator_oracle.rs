@@ -142,7 +142,7 @@ fn predictor_is_symmetric_positive_definite_and_the_krylov_solutions_match_spars
             let op = Predictor::new(&g, dt, &m, None);
             let apply = |f: &[(usize, usize, bool)], x: &[f64]| {
                 let (mut xv, mut y) = (to_vector(&g, f, x), VectorField::zeros(&g));
-                op.apply(&mut xv, &mut y);
+                op.apply(&mut xv, &mut y).unwrap();
                 from_vector(f, &y)
             };
             // Through `LinOp::apply` the wall faces are boundary values: the closure sets them
@@ -174,7 +174,7 @@ fn predictor_is_symmetric_positive_definite_and_the_krylov_solutions_match_spars
             let x_true = target(&f);
             let xv = to_vector(&g, &f, &x_true);
             let mut y = VectorField::zeros(&g);
-            op.apply(&mut xv.clone(), &mut y);
+            op.apply(&mut xv.clone(), &mut y).unwrap();
             let b = from_vector(&f, &y);
             let x_lu = lu_solve(&a, &b);
             let mut pc = HelmholtzPrecond::new(&g).unwrap();

@@ -128,7 +128,7 @@ mod tests {
                 v.c[c].data[idx] = xv;
             }
             let mut y = VectorField::zeros(&g);
-            op.apply(&mut v, &mut y);
+            op.apply(&mut v, &mut y).unwrap();
             free.iter().map(|&(c, idx)| y.c[c].data[idx]).collect::<Vec<f64>>()
         };
         let mut trip = Vec::new();

@@ -12,6 +12,7 @@ use crate::grid::ops::cell_vector;
 use crate::grid::{Grid, SymField, VectorField};
 use crate::interface::NormalScheme;
 use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
+use crate::membrane::law::check_stress_free;
 use crate::membrane::{BendingForm, BendingStress, InPlaneElasticity, SurfaceLaw, small_strain_moduli};
 use crate::{Error, Real, Result};
 use std::sync::Arc;
@@ -146,6 +147,8 @@ impl<T: Real> Effect<T> for Elasticity<T> {
                 "a law with positive shear and area-dilation moduli",
             ));
         }
+        // A law with stress at rest would drive a capsule in its reference state.
+        check_stress_free(self.law())?;
         self.coupling = setup.settings.coupling;
         self.work = (0..setup.capsules)
             .map(|c| self.capsules.contains(c).then(|| InPlaneElasticity::new(setup.grid, self.law.clone())))
