@@ -100,7 +100,7 @@ fn settings(args: &Args) -> Result<Settings<f64>, Box<dyn std::error::Error>> {
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.
 fn build(n: usize, load: Load, settings: Settings<f64>) -> eulermembrane::Result<Simulation<f64>> {
-    if n < 8 || n % 2 != 0 {
+    if n < 8 || !n.is_multiple_of(2) {
         return Err(eulermembrane::Error::invalid("--n", n, "an even number of cells >= 8"));
     }
     let mut bc = [[Boundary::Periodic; 2]; 3];

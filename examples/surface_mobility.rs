@@ -94,7 +94,7 @@ fn settle(
     let mut estimate = [f64::NAN; 2];
     for s in 1..=max_steps {
         sim.step(dt)?;
-        if s % 40 == 0 || s == max_steps {
+        if s.is_multiple_of(40) || s == max_steps {
             let delta = sim.delta(0)?;
             samples.push([
                 surface_velocity_projection(sim.grid(), sim.velocity(), delta, modes[0])?,
@@ -135,7 +135,7 @@ fn run() -> BoxResult<()> {
     let max_steps: usize = args.get("steps", 4000);
     let (mut cpr, mut normal, mut tangential, mut tan_normal) = (vec![], vec![], vec![], vec![]);
     for &n in &ns {
-        if n < 16 || n % 2 != 0 {
+        if n < 16 || !n.is_multiple_of(2) {
             return Err(format!("--n {n}: expected even numbers of cells >= 16").into());
         }
         eprintln!("surface_mobility: {n}^3 cells, {} cells per radius, beta = {beta}", n / 8);

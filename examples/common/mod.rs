@@ -215,7 +215,7 @@ pub fn cpu_seconds() -> f64 {
 /// Whether step `s` of a run of `steps` steps is a progress step: every 5 % and the last one.
 /// The cadence of [`progress`], and of the flushes of the examples' CSV files.
 pub fn progress_due(s: usize, steps: usize) -> bool {
-    s % (steps / 20).max(1) == 0 || s == steps
+    s.is_multiple_of((steps / 20).max(1)) || s == steps
 }
 
 /// Prints a progress line of a run of `steps` steps to stderr at each [`progress_due`] step:

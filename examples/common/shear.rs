@@ -132,7 +132,7 @@ pub struct ShearOutcome {
 /// The scene of Sec. 3.3 in precision `T`, with `settings`.
 pub fn build<T: Real>(case: &ShearCase, settings: Settings<T>) -> eulermembrane::Result<Simulation<T>> {
     let n = case.n;
-    if n < 16 || n % 2 != 0 {
+    if n < 16 || !n.is_multiple_of(2) {
         return Err(eulermembrane::Error::invalid("--n", n, "an even number of cells >= 16"));
     }
     let u = T::lit(4.0);
@@ -192,7 +192,7 @@ pub fn run<T: Real>(
             iterations = sim.step(dt)?.flow.predictor_iterations;
         }
         let t = sim.time().f64();
-        if s % every == 0 || s == steps {
+        if s.is_multiple_of(every) || s == steps {
             let drift = (sim.volume(0)? - v0).abs() / v0;
             max_drift = max_drift.max(drift);
             let centre = sim.centroid(0)?;

@@ -703,10 +703,10 @@ mod tests {
             });
             for (i, j, k) in g.cells() {
                 // No slip: the wall faces of the normal component are fixed at zero.
-                if let Some(w) = wall {
-                    if [i, j, k][w] == 0 {
-                        target.c[w].data[g.idx_u(i, j, k)] = 0.0;
-                    }
+                if let Some(w) = wall
+                    && [i, j, k][w] == 0
+                {
+                    target.c[w].data[g.idx_u(i, j, k)] = 0.0;
                 }
             }
             let mut b = VectorField::zeros(&g);

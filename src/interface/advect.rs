@@ -510,11 +510,11 @@ impl<T: Real> RowKernel<'_, T> {
                 let kt = self.kappa[idx];
                 let mut rk = kt * div_v - div_g;
                 let s = self.slot[idx];
-                if s != NONE {
-                    if let Some(n) = self.band[s as usize].normal(h) {
-                        let gv = grad_v_at_cell(self.grid, self.v, idx);
-                        rk -= kt * normal_stretching(&n, &gv);
-                    }
+                if s != NONE
+                    && let Some(n) = self.band[s as usize].normal(h)
+                {
+                    let gv = grad_v_at_cell(self.grid, self.v, idx);
+                    rk -= kt * normal_stretching(&n, &gv);
                 }
                 let rkp = if first { T::zero() } else { rhs_k[i] };
                 let newk = kt + dt * (c1 * rk - c0 * rkp);

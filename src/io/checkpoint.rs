@@ -163,7 +163,7 @@ impl CheckpointReader {
         let bytes: Option<Vec<u8>> = self
             .entry(name)?
             .iter()
-            .map(|&x| (x >= 0.0 && x <= 255.0 && x.fract() == 0.0).then_some(x as u8))
+            .map(|&x| ((0.0..=255.0).contains(&x) && x.fract() == 0.0).then_some(x as u8))
             .collect();
         bytes.and_then(|b| String::from_utf8(b).ok()).ok_or_else(|| Error::Io {
             path: self.path.clone(),

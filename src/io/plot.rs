@@ -1120,11 +1120,11 @@ fn resolve_range(spec: &AxisSpec, data: Option<(f64, f64)>) -> (f64, f64) {
         Scale::Log10 => 300.0,
     };
     let clamp = |(lo, hi): (f64, f64)| (lo.clamp(-limit, limit), hi.clamp(-limit, limit));
-    if let Some((a, b)) = spec.range {
-        if let (Some(a), Some(b)) = (transform(spec.scale, a), transform(spec.scale, b)) {
-            let (lo, hi) = clamp((a.min(b), a.max(b)));
-            return widen(lo, hi, spec.scale);
-        }
+    if let Some((a, b)) = spec.range
+        && let (Some(a), Some(b)) = (transform(spec.scale, a), transform(spec.scale, b))
+    {
+        let (lo, hi) = clamp((a.min(b), a.max(b)));
+        return widen(lo, hi, spec.scale);
     }
     match data {
         Some(range) => {

@@ -519,7 +519,7 @@ mod tests {
             let n = g.n();
             // A scattered pattern of band cells (away from walls), some touching the seams.
             let on = |i: usize, j: usize, k: usize| {
-                (i * 7 + j * 3 + k * 5) % 17 == 0 && j >= 3 && j + 3 < n[1] || (i == 0 && j == 4)
+                (i * 7 + j * 3 + k * 5).is_multiple_of(17) && j >= 3 && j + 3 < n[1] || (i == 0 && j == 4)
             };
             let delta = Field::from_cell_fn(g, |_| 0.0);
             let mut delta = delta;

@@ -1,6 +1,6 @@
 //! The paper's effects: in-plane [`Elasticity`] (2.4)-(2.6) with the quasi-implicit coupling
 //! (2.32)-(2.35), [`Bending`] (2.16)-(2.17), a [`SurfaceLoad`] `delta f(x, t)` (2.26), and the
-//! uniform [`BodyForce`](crate::fluid::BodyForce). Each acts on every capsule or on the ones
+//! uniform [`BodyForce`]. Each acts on every capsule or on the ones
 //! named with `only` (a mixed suspension: stiff and soft capsules, red cells with another law).
 
 use super::effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
@@ -11,8 +11,8 @@ use crate::fluid::{BodyForce, Forcing, ImplicitTerm};
 use crate::grid::ops::cell_vector;
 use crate::grid::{Grid, SymField, VectorField};
 use crate::interface::NormalScheme;
-use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
 use crate::membrane::law::check_stress_free;
+use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
 use crate::membrane::{BendingForm, BendingStress, InPlaneElasticity, SurfaceLaw, small_strain_moduli};
 use crate::{Error, Real, Result};
 use std::sync::Arc;
@@ -219,7 +219,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
             // `add_implicit` reports a band mismatch; here such a capsule adds nothing.
             let Ok(m) = state.membrane(c) else { continue };
             if let Ok(t) = e.implicit(m.band) {
-                s = s + t.apply_at(state.grid, x, comp, idx);
+                s += t.apply_at(state.grid, x, comp, idx);
             }
         }
         s

@@ -150,7 +150,7 @@ impl Every {
 }
 
 /// Writes a progress line every `interval` time units (and a line for the first step of a run
-/// whose report carries a [`StepWarning`]) to a writer of the caller's choice (e.g.
+/// whose report carries a [`StepWarning`](super::StepWarning)) to a writer of the caller's choice (e.g.
 /// `std::io::stderr()`).
 pub struct Progress<W: Write> {
     out: W,

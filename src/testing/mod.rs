@@ -134,7 +134,7 @@ pub enum Property {
     /// `W_12` (the gradient must be the gradient of one energy).
     Hessian,
     /// [`SurfaceLaw::derivatives`] against [`gradient`](SurfaceLaw::gradient) and
-    /// [`hessian`](SurfaceLaw::hessian), and so [`stress_and_jacobian`] against [`stress`]
+    /// [`hessian`](SurfaceLaw::hessian), and so [`stress_and_jacobian`] against [`stress()`]
     /// (relative, as above): an override of `derivatives` must agree to round-off.
     Derivatives,
     /// `τ = 0` at `G_s = P_R` and at the rigidly rotated `G_s = Q P_R Qᵀ`, `n = Q n_R`
