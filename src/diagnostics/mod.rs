@@ -62,6 +62,6 @@ pub use modes::{ModeWeight, SurfaceModes, mode_amplitudes, normalized_legendre, 
 pub use profile::{ProfileAxes, Span, streamwise_profile};
 pub use tangency::{GsTangency, gs_tangency};
 pub use taylor::{
-    Ellipse, TaylorDeformation, fit_ellipse, section_axes, section_contour, taylor_deformation,
+    EllipseFit, TaylorDeformation, fit_ellipse, section_axes, section_contour, taylor_deformation,
 };
 pub use volume::{centroid, volume};

@@ -46,9 +46,9 @@ pub fn section_axes(normal_axis: usize) -> Option<[usize; 2]> {
     }
 }
 
-/// An ellipse in a plane.
+/// The ellipse fitted to a section contour by [`fit_ellipse`] (centre, semi-axes, angle).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ellipse {
+pub struct EllipseFit {
     /// Centre, in the coordinates of the fitted points.
     pub centre: [f64; 2],
     /// Semi-major axis `L`.
@@ -63,7 +63,7 @@ pub struct Ellipse {
     pub rms_distance: f64,
 }
 
-impl Ellipse {
+impl EllipseFit {
     /// Taylor's deformation parameter `D = (L - B)/(L + B)`.
     pub fn deformation(&self) -> f64 {
         (self.semi_major - self.semi_minor) / (self.semi_major + self.semi_minor)
@@ -185,7 +185,7 @@ pub fn section_contour<T: Real>(
 }
 
 /// Least-squares fit of the conic `a x^2 + b y^2 + c x y + d x + e y + 1 = 0` to `points` and
-/// its reduction to an [`Ellipse`] (see the [module docs](self)). The points should surround
+/// its reduction to an [`EllipseFit`] (see the [module docs](self)). The points should surround
 /// the origin (use coordinates relative to the capsule centre, as [`section_contour`] gives).
 ///
 /// Errors: fewer than 6 points, or a non-finite coordinate ([`Error::InvalidParameter`]); a
@@ -209,7 +209,7 @@ pub fn section_contour<T: Real>(
 /// assert!(fit_ellipse(&pts[..3]).is_err());
 /// # Ok::<(), eulermembrane::Error>(())
 /// ```
-pub fn fit_ellipse(points: &[[f64; 2]]) -> Result<Ellipse> {
+pub fn fit_ellipse(points: &[[f64; 2]]) -> Result<EllipseFit> {
     if points.len() < MIN_POINTS {
         return Err(Error::invalid(
             "points",
@@ -279,7 +279,7 @@ pub fn fit_ellipse(points: &[[f64; 2]]) -> Result<Ellipse> {
         d2 += if g > 0.0 { (q / g).powi(2) } else { 0.0 };
     }
     let rms_distance = (d2 / m as f64).sqrt() * sc;
-    Ok(Ellipse { centre: [x0 * sc, y0 * sc], semi_major: major, semi_minor: minor, angle, rms_distance })
+    Ok(EllipseFit { centre: [x0 * sc, y0 * sc], semi_major: major, semi_minor: minor, angle, rms_distance })
 }
 
 /// Least squares `min |A x - b|` by faer's Householder QR, with `a` the `m x 5` matrix `A` and
