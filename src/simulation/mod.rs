@@ -321,15 +321,8 @@ impl<T: Real> Simulation<T> {
         for e in self.effects.iter_mut() {
             e.prepare(&state, self.flow.velocity(), dt)?;
         }
-        // 4-5: materials and the flow step.
+        // 4-5: materials and the flow step (the same state: the mixture does not change it).
         update_materials(grid, self.inside, self.outside, &self.capsules, &mut self.flow, true);
-        let state = StepState {
-            grid,
-            settings: &self.settings,
-            time,
-            capsules: &self.capsules,
-            level: LevelChoice::Next,
-        };
         let forcing = EffectForcing { effects: &self.effects, state: &state };
         let implicit = EffectImplicit { effects: &self.effects, state: &state };
         let extra = implicit.any().then_some(&implicit as &dyn crate::fluid::ImplicitTerm<T>);
