@@ -64,6 +64,47 @@ pub(crate) fn reference_integral<T: Real>(
     s * grid.cell_volume().f64()
 }
 
+/// The capsules a membrane effect acts on and, once attached, its work state `W` on each of
+/// them (`None` on the others).
+struct PerCapsule<W> {
+    capsules: Capsules,
+    work: Vec<Option<W>>,
+}
+
+impl<W> PerCapsule<W> {
+    fn all() -> Self {
+        PerCapsule { capsules: Capsules::All, work: Vec::new() }
+    }
+
+    fn only(&mut self, capsules: impl IntoIterator<Item = usize>) {
+        self.capsules = Capsules::Only(capsules.into_iter().collect());
+    }
+
+    /// Checks the capsule selection of `effect` against a scene of `count` capsules and makes the
+    /// work state of each selected capsule.
+    fn attach(
+        &mut self,
+        effect: &'static str,
+        count: usize,
+        mut make: impl FnMut() -> Result<W>,
+    ) -> Result<()> {
+        self.capsules.validate(effect, count)?;
+        self.work = (0..count)
+            .map(|c| self.capsules.contains(c).then(&mut make).transpose())
+            .collect::<Result<_>>()?;
+        Ok(())
+    }
+
+    /// The selected capsules and their work states.
+    fn iter(&self) -> impl Iterator<Item = (usize, &W)> {
+        self.work.iter().enumerate().filter_map(|(c, w)| Some((c, w.as_ref()?)))
+    }
+
+    fn iter_mut(&mut self) -> impl Iterator<Item = (usize, &mut W)> {
+        self.work.iter_mut().enumerate().filter_map(|(c, w)| Some((c, w.as_mut()?)))
+    }
+}
+
 /// In-plane elasticity of the membranes with a [`SurfaceLaw`]: the force
 /// `div(delta tau)` (2.26) with the stress (2.4) of `G_s`, quasi-implicit (2.32)-(2.35) or
 /// explicit by [`Settings::coupling`](super::Settings::coupling). Needs `G_s`.
@@ -80,9 +121,8 @@ pub(crate) fn reference_integral<T: Real>(
 /// ```
 pub struct Elasticity<T: Real> {
     law: SharedLaw<T>,
-    capsules: Capsules,
-    /// Per capsule of the scene: its evaluation state where the effect acts.
-    work: Vec<Option<InPlaneElasticity<T, SharedLaw<T>>>>,
+    /// The capsules it acts on, each with its evaluation state.
+    at: PerCapsule<InPlaneElasticity<T, SharedLaw<T>>>,
     coupling: MembraneCoupling,
 }
 
@@ -91,26 +131,20 @@ impl<T: Real> Elasticity<T> {
     pub fn new(law: impl SurfaceLaw<T> + 'static) -> Self {
         Elasticity {
             law: SharedLaw(Arc::new(law)),
-            capsules: Capsules::All,
-            work: Vec::new(),
+            at: PerCapsule::all(),
             coupling: MembraneCoupling::default(),
         }
     }
 
     /// The same elasticity on the capsules with these indices only.
     pub fn only(mut self, capsules: impl IntoIterator<Item = usize>) -> Self {
-        self.capsules = Capsules::Only(capsules.into_iter().collect());
+        self.at.only(capsules);
         self
     }
 
     /// The law.
     pub fn law(&self) -> &dyn SurfaceLaw<T> {
         self.law.0.as_ref()
-    }
-
-    /// The forcing views of capsule `c` of the prepared step (`None` where the effect does not act).
-    fn work(&self, c: usize) -> Option<&InPlaneElasticity<T, SharedLaw<T>>> {
-        self.work.get(c).and_then(|w| w.as_ref())
     }
 }
 
@@ -125,20 +159,22 @@ impl<T: Real> Effect<T> for Elasticity<T> {
             self.law.name(),
             mu.f64(),
             k.f64(),
-            self.capsules
+            self.at.capsules
         )
     }
     fn needs(&self) -> Needs {
         Needs::STRAIN
     }
     fn acts_on(&self, c: usize) -> bool {
-        self.capsules.contains(c)
+        self.at.capsules.contains(c)
     }
     fn energy_role(&self) -> EnergyRole {
         EnergyRole::Stored
     }
     fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
-        self.capsules.validate("elasticity", setup.capsules)?;
+        let law = &self.law;
+        self.at
+            .attach("elasticity", setup.capsules, || Ok(InPlaneElasticity::new(setup.grid, law.clone())))?;
         let (mu_s, k) = small_strain_moduli(self.law());
         if !(mu_s > T::zero() && k > T::zero()) {
             return Err(Error::invalid(
@@ -150,9 +186,6 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         // A law with stress at rest would drive a capsule in its reference state.
         check_stress_free(self.law())?;
         self.coupling = setup.settings.coupling;
-        self.work = (0..setup.capsules)
-            .map(|c| self.capsules.contains(c).then(|| InPlaneElasticity::new(setup.grid, self.law.clone())))
-            .collect();
         Ok(())
     }
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
@@ -161,8 +194,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         membrane_dt_limit(setup.mean_viscosity(), setup.min_spacing(), k, self.coupling).ok()
     }
     fn prepare(&mut self, state: &StepState<'_, T>, _: &VectorField<T>, dt: T) -> Result<()> {
-        for (c, w) in self.work.iter_mut().enumerate() {
-            let Some(e) = w.as_mut() else { continue };
+        for (c, e) in self.at.iter_mut() {
             let m = state.membrane(c)?;
             let gs = m.gs.ok_or_else(|| missing_field("elasticity", "G_s", c))?;
             e.evaluate(state.grid, m.band, gs, m.normal, m.delta, dt)?;
@@ -170,7 +202,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         Ok(())
     }
     fn is_active(&self, state: &StepState<'_, T>) -> bool {
-        any_band(state, &self.capsules)
+        any_band(state, &self.at.capsules)
     }
     fn add_force(
         &self,
@@ -178,8 +210,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         v: &VectorField<T>,
         out: &mut VectorField<T>,
     ) -> Result<()> {
-        for c in 0..self.work.len() {
-            let Some(e) = self.work(c) else { continue };
+        for (c, e) in self.at.iter() {
             let band = state.membrane(c)?.band;
             let f = match self.coupling {
                 MembraneCoupling::Explicit => e.explicit_forcing(band)?,
@@ -203,8 +234,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         if self.coupling != MembraneCoupling::QuasiImplicit {
             return Ok(());
         }
-        for c in 0..self.work.len() {
-            let Some(e) = self.work(c) else { continue };
+        for (c, e) in self.at.iter() {
             e.implicit(state.membrane(c)?.band)?.add_apply(state.grid, x, y)?;
         }
         Ok(())
@@ -214,8 +244,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
             return T::zero();
         }
         let mut s = T::zero();
-        for c in 0..self.work.len() {
-            let Some(e) = self.work(c) else { continue };
+        for (c, e) in self.at.iter() {
             // `add_implicit` reports a band mismatch; here such a capsule adds nothing.
             let Ok(m) = state.membrane(c) else { continue };
             if let Ok(t) = e.implicit(m.band) {
@@ -226,16 +255,16 @@ impl<T: Real> Effect<T> for Elasticity<T> {
     }
     fn stored_energy(&self, state: &StepState<'_, T>) -> f64 {
         let energy = |k: &SurfaceKinematics<T>| self.law.energy(k.c1, k.c2);
-        (0..self.work.len())
-            .filter(|&c| self.work(c).is_some())
-            .filter_map(|c| {
+        self.at
+            .iter()
+            .filter_map(|(c, _)| {
                 let m = state.membrane(c).ok()?;
                 Some(reference_integral(state.grid, &m, m.gs?, energy))
             })
             .sum()
     }
     fn surface_law(&self, c: usize) -> Option<&dyn SurfaceLaw<T>> {
-        self.capsules.contains(c).then(|| self.law())
+        self.at.capsules.contains(c).then(|| self.law())
     }
 }
 
@@ -244,8 +273,8 @@ impl<T: Real> Effect<T> for Elasticity<T> {
 /// (by [`Settings::bending_form`](super::Settings::bending_form)). Needs `kappa_R tilde`.
 pub struct Bending<T: Real> {
     eb: T,
-    capsules: Capsules,
-    work: Vec<Option<BendingStress<T>>>,
+    /// The capsules it acts on, each with its bending stress.
+    at: PerCapsule<BendingStress<T>>,
     form: BendingForm,
     atanh4: bool,
 }
@@ -257,18 +286,12 @@ impl<T: Real> Bending<T> {
     /// [`Error::InvalidParameter`] naming `eb` unless it is finite and `> 0`.
     pub fn new(eb: T) -> Result<Self> {
         positive("eb", eb)?;
-        Ok(Bending {
-            eb,
-            capsules: Capsules::All,
-            work: Vec::new(),
-            form: BendingForm::default(),
-            atanh4: false,
-        })
+        Ok(Bending { eb, at: PerCapsule::all(), form: BendingForm::default(), atanh4: false })
     }
 
     /// The same bending on the capsules with these indices only.
     pub fn only(mut self, capsules: impl IntoIterator<Item = usize>) -> Self {
-        self.capsules = Capsules::Only(capsules.into_iter().collect());
+        self.at.only(capsules);
         self
     }
 
@@ -283,19 +306,20 @@ impl<T: Real> Effect<T> for Bending<T> {
         "bending"
     }
     fn describe(&self) -> String {
-        format!("bending eb={:e} capsules={:?}", self.eb.f64(), self.capsules)
+        format!("bending eb={:e} capsules={:?}", self.eb.f64(), self.at.capsules)
     }
     fn needs(&self) -> Needs {
         Needs::CURVATURE
     }
     fn acts_on(&self, c: usize) -> bool {
-        self.capsules.contains(c)
+        self.at.capsules.contains(c)
     }
     fn energy_role(&self) -> EnergyRole {
         EnergyRole::Stored
     }
     fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
-        self.capsules.validate("bending", setup.capsules)?;
+        let eb = self.eb;
+        self.at.attach("bending", setup.capsules, || BendingStress::new(setup.grid, eb))?;
         let s = setup.settings;
         if s.bending_form == BendingForm::EnergyGradient
             && !matches!(s.normals, NormalScheme::Atanh2 | NormalScheme::Atanh4)
@@ -308,23 +332,13 @@ impl<T: Real> Effect<T> for Bending<T> {
         }
         self.form = s.bending_form;
         self.atanh4 = s.normals == NormalScheme::Atanh4;
-        let mut work = Vec::with_capacity(setup.capsules);
-        for c in 0..setup.capsules {
-            work.push(if self.capsules.contains(c) {
-                Some(BendingStress::new(setup.grid, self.eb)?)
-            } else {
-                None
-            });
-        }
-        self.work = work;
         Ok(())
     }
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
         bending_dt_limit(setup.mean_viscosity(), setup.min_spacing(), self.eb.f64()).ok()
     }
     fn prepare(&mut self, state: &StepState<'_, T>, _: &VectorField<T>, _: T) -> Result<()> {
-        for (c, w) in self.work.iter_mut().enumerate() {
-            let Some(b) = w.as_mut() else { continue };
+        for (c, b) in self.at.iter_mut() {
             let m = state.membrane(c)?;
             let kappa = m.curvature.ok_or_else(|| missing_field("bending", "kappa_R tilde", c))?;
             match self.form {
@@ -337,7 +351,7 @@ impl<T: Real> Effect<T> for Bending<T> {
         Ok(())
     }
     fn is_active(&self, state: &StepState<'_, T>) -> bool {
-        any_band(state, &self.capsules)
+        any_band(state, &self.at.capsules)
     }
     fn add_force(
         &self,
@@ -345,8 +359,7 @@ impl<T: Real> Effect<T> for Bending<T> {
         v: &VectorField<T>,
         out: &mut VectorField<T>,
     ) -> Result<()> {
-        for (c, w) in self.work.iter().enumerate() {
-            let Some(b) = w.as_ref() else { continue };
+        for (c, b) in self.at.iter() {
             let f = b.forcing(state.membrane(c)?.band)?;
             if f.is_active() {
                 f.add(state.grid, state.time, v, out)?;
