@@ -66,11 +66,13 @@ pub mod observer;
 mod output;
 mod scene;
 pub mod stability;
+pub mod timestep;
 
 pub use effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
 pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
 pub use observer::{Observer, RunSummary};
 pub use scene::{GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings};
+pub use timestep::{AdaptiveDt, FixedDt, TimeStepping};
 
 use crate::diagnostics::{
     DissipationForm, EnergyState, StepIntegrals, body_force_power, kinetic_energy, viscous_dissipation,
@@ -100,6 +102,9 @@ pub struct StepReport {
     pub band_cells: usize,
     /// What the caller should know about this step (the library never prints).
     pub warning: Option<StepWarning>,
+    /// Attempts at this step that an [`AdaptiveDt`] rejected and retried smaller (0 for a
+    /// step taken as asked).
+    pub retries: usize,
 }
 
 /// A warning carried by a [`StepReport`]: the step was taken, but its result may not be
@@ -115,6 +120,15 @@ pub enum StepWarning {
         /// The smallest limit of the scene's effects.
         limit: f64,
     },
+    /// The largest velocity `max|v|` grew by `factor` within the last `steps` steps of an
+    /// [`AdaptiveDt`] run: a flow that speeds up, or the start of an instability. The step
+    /// follows it (its Courant target shrinks `dt`); look at the run if no physics explains it.
+    VelocityGrowth {
+        /// `max|v|` of this step over the smallest of the recent steps.
+        factor: f64,
+        /// The recent steps compared.
+        steps: usize,
+    },
 }
 
 impl std::fmt::Display for StepWarning {
@@ -124,6 +138,11 @@ impl std::fmt::Display for StepWarning {
                 f,
                 "dt = {dt:.3e} exceeds the membrane stability limit {limit:.3e} \
                  (see eulermembrane::simulation::stability); the run may blow up"
+            ),
+            StepWarning::VelocityGrowth { factor, steps } => write!(
+                f,
+                "max|v| grew by a factor {factor:.2} within the last {steps} steps \
+                 (a flow that speeds up, or the start of an instability)"
             ),
         }
     }
@@ -347,7 +366,7 @@ impl<T: Real> Simulation<T> {
         let band_cells = self.capsules.iter().map(|c| c.next.band.len()).sum();
         let limit = self.membrane_dt_limit();
         let warning = (dt.f64() > limit).then_some(StepWarning::DtAboveLimit { dt: dt.f64(), limit });
-        let report = StepReport { flow: flow_info, profile_cells, band_cells, warning };
+        let report = StepReport { flow: flow_info, profile_cells, band_cells, warning, retries: 0 };
         self.pending = Some(Pending { report, dissipated, work });
         Ok(report)
     }

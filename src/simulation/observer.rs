@@ -34,7 +34,7 @@
 //! # Ok::<(), eulermembrane::Error>(())
 //! ```
 
-use super::{Simulation, StepReport};
+use super::{FixedDt, Simulation, StepReport, TimeStepping};
 use crate::error::positive;
 use crate::io::vtk::PvdSeries;
 use crate::{Error, Real, Result};
@@ -78,29 +78,45 @@ pub struct RunSummary {
     pub time: f64,
     /// Steps whose report carried a warning.
     pub warned_steps: usize,
+    /// Attempts rejected and retried smaller (adaptive steps only).
+    pub retries: usize,
     /// The report of the last step (`None` if the run took no step).
     pub last: Option<StepReport>,
 }
 
 impl<T: Real> Simulation<T> {
-    /// Steps of `dt` until the time is within `dt / 2` of `until`, handing each step to the
-    /// `observers` in order (see the [module docs](self)).
+    /// Steps of `dt` until the time is within `dt / 2` of `until` ([`FixedDt`]), handing each
+    /// step to the `observers` in order (see the [module docs](self)).
     ///
     /// # Errors
     /// `until` or `dt` not finite, `dt <= 0`; the first error of a step (the state is then that
     /// of the last successful step, see [`step`](Self::step)) or of an observer.
     pub fn run(&mut self, until: T, dt: T, observers: &mut [&mut dyn Observer<T>]) -> Result<RunSummary> {
+        self.run_with(until, &mut FixedDt::new(dt)?, observers)
+    }
+
+    /// Steps chosen by `stepping` (e.g. an [`AdaptiveDt`](super::AdaptiveDt)) until `until`,
+    /// handing each step to the `observers` in order.
+    ///
+    /// # Errors
+    /// `until` not finite; the first error of a step that the policy does not retry (the state
+    /// is then that of the last accepted step) or of an observer.
+    pub fn run_with(
+        &mut self,
+        until: T,
+        stepping: &mut dyn TimeStepping<T>,
+        observers: &mut [&mut dyn Observer<T>],
+    ) -> Result<RunSummary> {
         crate::error::finite("until", until)?;
-        positive("dt", dt)?;
         for o in observers.iter_mut() {
             o.start(self)?;
         }
         let mut summary = RunSummary { time: self.time().f64(), ..Default::default() };
-        while self.time() + T::lit(0.5) * dt < until {
-            let report = self.step(dt)?;
+        while let Some(report) = stepping.advance(self, until)? {
             summary.steps += 1;
             summary.time = report.flow.time;
             summary.warned_steps += usize::from(report.warning.is_some());
+            summary.retries += report.retries;
             summary.last = Some(report);
             for o in observers.iter_mut() {
                 o.observe(self, &report)?;
