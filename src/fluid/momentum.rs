@@ -697,8 +697,8 @@ pub struct MomentumSystem<'a, T: Real> {
 /// [`FlowStepper::new`](super::FlowStepper::new) builds the default from
 /// [`FlowConfig::predictor`](super::FlowConfig::predictor) (a
 /// [`PredictorSolver`](super::PredictorSolver): [`KrylovMomentum`] or
-/// [`SorMomentum`](super::sor::SorMomentum)); [`FlowStepper::with_momentum_solver`]
-/// (super::FlowStepper::with_momentum_solver) and
+/// [`SorMomentum`](super::sor::SorMomentum));
+/// [`FlowStepper::with_momentum_solver`](super::FlowStepper::with_momentum_solver) and
 /// [`Scene::momentum_solver`](crate::simulation::Scene::momentum_solver) take a user's. A solver
 /// owns its workspace, allocated when it is built: the step calls it through one dynamic
 /// dispatch and it must not allocate.
