@@ -12,9 +12,12 @@
 //! # Ok::<(), eulermembrane::Error>(())
 //! ```
 
-pub use crate::fluid::{BodyForce, FlowConfig, FlowStepper, Forcing, ImplicitTerm, Materials};
+pub use crate::fluid::{
+    BodyForce, FlowConfig, FlowStepper, Forcing, ImplicitTerm, Materials, MomentumSolver, PressureSolver,
+};
 pub use crate::grid::{Boundary, Field, Grid, SymField, VectorField};
 pub use crate::interface::shapes::{Biconcave, Circle, Ellipse, Ellipsoid, Shape, Sphere};
+pub use crate::interface::{InterfaceTransport, NormalEstimator};
 pub use crate::membrane::{NeoHookean, Skalak, SurfaceLaw};
 pub use crate::simulation::observer::{Checkpoints, Observer, Progress, VtkSeries};
 pub use crate::simulation::{

@@ -52,12 +52,32 @@ impl Default for KrylovParams {
     }
 }
 
-/// What a converged solve reports.
+impl KrylovParams {
+    /// Checks the rule: a tolerance in `(0, 1)` and at least one iteration; errors name the
+    /// setting `name`.
+    pub(crate) fn validate(&self, name: &'static str) -> Result<()> {
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return Err(Error::invalid(
+                name,
+                format!("tolerance {}", self.tolerance),
+                "a tolerance in (0, 1)",
+            ));
+        }
+        if self.max_iterations == 0 {
+            return Err(Error::invalid(name, "max_iterations 0", "max_iterations >= 1"));
+        }
+        Ok(())
+    }
+}
+
+/// What a converged solve reports (also what a [`MomentumSolver`](super::MomentumSolver) or a
+/// [`PressureSolver`](super::PressureSolver) returns).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct KrylovInfo {
-    /// Iterations performed (operator applications: 1 per CG and 2 per BiCGStab iteration).
+    /// Iterations performed (operator applications: 1 per CG and 2 per BiCGStab iteration;
+    /// sweeps for SOR).
     pub iterations: usize,
-    /// Final relative residual.
+    /// Final relative residual (relative change for SOR).
     pub residual: f64,
 }
 

@@ -1,5 +1,6 @@
 //! The incompressible flow solver: direct and iterative linear solvers, the momentum predictor
-//! (2.35), the pressure projection (2.36)-(2.39), and the stepper that ties them together.
+//! (2.35), the pressure projection (2.36)-(2.39), and the stepper that ties them together. The
+//! two linear solves of a step are strategies: [`MomentumSolver`] and [`PressureSolver`].
 
 pub mod forcing;
 pub mod krylov;
@@ -12,7 +13,10 @@ pub mod stepper;
 
 pub use forcing::{BodyForce, Forcing};
 pub use krylov::{KrylovInfo, KrylovParams, KrylovWorkspace, LinOp, Precond};
-pub use momentum::{Coefficient, HelmholtzPrecond, ImplicitTerm, Materials};
-pub use sor::SorParams;
+pub use momentum::{
+    Coefficient, HelmholtzPrecond, ImplicitTerm, KrylovMomentum, Materials, MomentumSolver, MomentumSystem,
+};
+pub use projection::{PressureSolver, SpectralPcg};
+pub use sor::{SorMomentum, SorParams};
 pub use spectral::{AxisKind, Location, SpectralSolver};
 pub use stepper::{FlowConfig, FlowStepper, PredictorSolver, StepInfo};

@@ -13,6 +13,7 @@
 //!   normal-velocity unknowns on a wall are the identity scaled by `rho/dt` (their value stays
 //!   zero).
 
+use super::krylov::{KrylovInfo, KrylovParams, KrylovWorkspace, bicgstab};
 use super::spectral::{Location, SpectralSolver};
 use super::{LinOp, Precond};
 use crate::grid::GHOST;
@@ -670,6 +671,151 @@ impl<T: Real> Precond<T, VectorField<T>> for HelmholtzPrecond<T> {
                 }
             }
         }
+    }
+}
+
+/// The predictor system (2.35) of one step, as a [`MomentumSolver`] receives it: the operator
+/// `P` and what a preconditioner may want to know about it.
+pub struct MomentumSystem<'a, T: Real> {
+    /// The grid.
+    pub grid: &'a Grid<T>,
+    /// The operator `P` of (2.35) (with the extra implicit term of the step, if any); apply it
+    /// with [`LinOp::apply`].
+    pub operator: &'a Predictor<'a, T>,
+    /// The materials of the step (ghosts filled).
+    pub materials: &'a Materials<T>,
+    /// `1 / dt`.
+    pub inv_dt: T,
+    /// The smallest density.
+    pub rho_min: T,
+    /// The smallest and the largest viscosity.
+    pub mu_range: (T, T),
+}
+
+/// The strategy that solves the momentum predictor (2.35) `P v* = b`, once per step.
+///
+/// [`FlowStepper::new`](super::FlowStepper::new) builds the default from
+/// [`FlowConfig::predictor`](super::FlowConfig::predictor) (a
+/// [`PredictorSolver`](super::PredictorSolver): [`KrylovMomentum`] or
+/// [`SorMomentum`](super::sor::SorMomentum));
+/// [`FlowStepper::with_momentum_solver`](super::FlowStepper::with_momentum_solver) and
+/// [`Scene::momentum_solver`](crate::simulation::Scene::momentum_solver) take a user's. A solver
+/// owns its workspace, allocated when it is built: the step calls it through one dynamic
+/// dispatch and it must not allocate.
+///
+/// A user solver that wraps the default one and counts its calls:
+///
+/// ```
+/// use eulermembrane::fluid::{
+///     FlowConfig, FlowStepper, KrylovInfo, KrylovMomentum, Materials, MomentumSolver,
+///     MomentumSystem, BodyForce,
+/// };
+/// use eulermembrane::grid::{Grid, VectorField};
+/// use std::sync::atomic::{AtomicUsize, Ordering};
+/// use std::sync::Arc;
+///
+/// struct Counted(KrylovMomentum<f64>, Arc<AtomicUsize>);
+/// impl MomentumSolver<f64> for Counted {
+///     fn name(&self) -> &str {
+///         "counted_krylov"
+///     }
+///     fn solve(
+///         &mut self,
+///         system: &MomentumSystem<'_, f64>,
+///         b: &VectorField<f64>,
+///         x: &mut VectorField<f64>,
+///     ) -> eulermembrane::Result<KrylovInfo> {
+///         self.1.fetch_add(1, Ordering::Relaxed);
+///         self.0.solve(system, b, x)
+///     }
+/// }
+///
+/// let grid = Grid::<f64>::periodic([8; 3], [0.0; 3], [1.0; 3])?;
+/// let config = FlowConfig::default();
+/// let calls = Arc::new(AtomicUsize::new(0));
+/// let solver = Counted(KrylovMomentum::new(&grid, Default::default(), true)?, calls.clone());
+/// let mut flow = FlowStepper::new(&grid, Materials::uniform(1.0, 1.0)?, config)?
+///     .with_momentum_solver(Box::new(solver));
+/// flow.step(1e-2, &BodyForce::new([1.0, 0.0, 0.0])?, None)?;
+/// assert_eq!(calls.load(Ordering::Relaxed), 1);
+/// assert_eq!(flow.momentum_solver().name(), "counted_krylov");
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
+pub trait MomentumSolver<T: Real>: Send + Sync {
+    /// A short snake_case name, for [`Simulation::numerics`](crate::simulation::Simulation::numerics)
+    /// and error messages.
+    fn name(&self) -> &str;
+
+    /// Solves `P x = b` on the interior faces, starting from the given `x` (`v^n`); the ghosts
+    /// of `x` may be left in any state (the stepper fills them). Returns the iterations (or
+    /// sweeps) and the final relative residual (or change).
+    ///
+    /// # Errors
+    /// A solve that does not converge ([`Error::NoConvergence`]) or an operator that fails; the
+    /// step then fails and leaves the flow state as it was.
+    fn solve(
+        &mut self,
+        system: &MomentumSystem<'_, T>,
+        b: &VectorField<T>,
+        x: &mut VectorField<T>,
+    ) -> Result<KrylovInfo>;
+}
+
+/// The viscosity ratio above which [`KrylovMomentum`] inverts with both extremes
+/// ([`HelmholtzPrecond::set_two`]); below it one inverse with the larger viscosity already
+/// leaves the preconditioned spectrum within `[1 / ratio, 1]`.
+const TWO_VISCOSITY_RATIO: f64 = 1.5;
+
+/// The default [`MomentumSolver`] ([`PredictorSolver::Krylov`](super::PredictorSolver::Krylov)):
+/// right-preconditioned BiCGStab with the FFT solve of `(rho_min/dt) - (mu_max/2) Lap` per
+/// component ([`HelmholtzPrecond`]; with two viscosities more than 1.5 apart and
+/// `two_viscosities`, both inverses blended, [`HelmholtzPrecond::set_two`]).
+pub struct KrylovMomentum<T: Real> {
+    params: KrylovParams,
+    two_viscosities: bool,
+    precond: HelmholtzPrecond<T>,
+    ws: KrylovWorkspace<VectorField<T>>,
+}
+
+impl<T: Real> KrylovMomentum<T> {
+    /// The solver and its workspace for `grid`, with the stopping rule `params` and, with
+    /// `two_viscosities`, the blended preconditioner
+    /// ([`FlowConfig::two_viscosity_preconditioner`](super::FlowConfig::two_viscosity_preconditioner)).
+    ///
+    /// Errors: a tolerance outside `(0, 1)` or no iteration allowed (naming
+    /// `FlowConfig::predictor`); a grid the FFT solves cannot handle.
+    pub fn new(grid: &Grid<T>, params: KrylovParams, two_viscosities: bool) -> Result<Self> {
+        params.validate("FlowConfig::predictor")?;
+        Ok(KrylovMomentum {
+            params,
+            two_viscosities,
+            precond: HelmholtzPrecond::new(grid)?,
+            ws: KrylovWorkspace::new(grid),
+        })
+    }
+}
+
+impl<T: Real> MomentumSolver<T> for KrylovMomentum<T> {
+    fn name(&self) -> &str {
+        "bicgstab"
+    }
+
+    fn solve(
+        &mut self,
+        system: &MomentumSystem<'_, T>,
+        b: &VectorField<T>,
+        x: &mut VectorField<T>,
+    ) -> Result<KrylovInfo> {
+        let (rho_lo, (mu_lo, mu_hi)) = (system.rho_min, system.mu_range);
+        let sigma = rho_lo * system.inv_dt;
+        match &system.materials.mu {
+            // Two viscosities far apart: blend two inverses (HelmholtzPrecond::set_two).
+            Coefficient::Field(f) if self.two_viscosities && mu_hi > T::lit(TWO_VISCOSITY_RATIO) * mu_lo => {
+                self.precond.set_two(sigma, mu_lo, mu_hi, f)
+            }
+            _ => self.precond.set(sigma, T::lit(0.5) * mu_hi),
+        }
+        bicgstab(system.grid, system.operator, &mut self.precond, b, x, &mut self.ws, self.params)
     }
 }
 

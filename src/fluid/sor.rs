@@ -3,7 +3,8 @@
 //! paper), until the relative change
 //! `E = sqrt(sum (v^(k+1) - v^(k))^2 / sum (v^(0))^2)` falls below the tolerance (1e-6).
 
-use super::momentum::{Predictor, is_wall_face};
+use super::krylov::KrylovInfo;
+use super::momentum::{MomentumSolver, MomentumSystem, Predictor, is_wall_face};
 use crate::grid::{Grid, VectorField};
 use crate::{Error, Real, Result};
 
@@ -41,8 +42,36 @@ impl SorParams {
     }
 }
 
+/// The paper's SOR as a [`MomentumSolver`] ([`PredictorSolver::Sor`](super::PredictorSolver::Sor)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SorMomentum(SorParams);
+
+impl SorMomentum {
+    /// The solver with `params`; errors as [`SorParams::validate`].
+    pub fn new(params: SorParams) -> Result<Self> {
+        params.validate()?;
+        Ok(SorMomentum(params))
+    }
+}
+
+impl<T: Real> MomentumSolver<T> for SorMomentum {
+    fn name(&self) -> &str {
+        "sor"
+    }
+
+    fn solve(
+        &mut self,
+        system: &MomentumSystem<'_, T>,
+        b: &VectorField<T>,
+        x: &mut VectorField<T>,
+    ) -> Result<KrylovInfo> {
+        let (iterations, residual) = sor(system.grid, system.operator, b, x, self.0)?;
+        Ok(KrylovInfo { iterations, residual })
+    }
+}
+
 /// Solves `P x = b` by SOR from the given `x`; returns the number of sweeps and the final `E`.
-pub(crate) fn sor<T: Real>(
+fn sor<T: Real>(
     grid: &Grid<T>,
     op: &Predictor<T>,
     b: &VectorField<T>,

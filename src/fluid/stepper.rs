@@ -16,31 +16,27 @@
 //! exactly as it was.
 
 use super::forcing::Forcing;
-use super::krylov::{KrylovParams, KrylovWorkspace, bicgstab};
+use super::krylov::KrylovParams;
 use super::momentum::{
-    Coefficient, HelmholtzPrecond, ImplicitTerm, Materials, Predictor, ViscosityView, advection_at,
-    edge_viscosity, face_density, is_wall_face, uniform_helmholtz, viscous_at,
+    Coefficient, ImplicitTerm, KrylovMomentum, Materials, MomentumSolver, MomentumSystem, Predictor,
+    ViscosityView, advection_at, edge_viscosity, face_density, is_wall_face, uniform_helmholtz, viscous_at,
 };
-use super::projection::Projection;
-use super::sor::{SorParams, sor};
+use super::projection::{PressureSolver, Projection};
+use super::sor::{SorMomentum, SorParams};
 use crate::grid::ops::{gradient_at_face, par_interior, par_interior_update};
 use crate::grid::{Field, Grid, VectorField};
 use crate::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
 
-/// The viscosity ratio above which the predictor's preconditioner inverts with both extremes
-/// ([`HelmholtzPrecond::set_two`]); below it one inverse with the larger viscosity already
-/// leaves the preconditioned spectrum within `[1 / ratio, 1]`.
-const TWO_VISCOSITY_RATIO: f64 = 1.5;
-
-/// The solver of the predictor (2.35).
+/// The built-in solvers of the predictor (2.35): which [`MomentumSolver`] a [`FlowStepper`]
+/// builds (a user's own is plugged in with [`FlowStepper::with_momentum_solver`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PredictorSolver {
     /// BiCGStab preconditioned by the FFT solve of the constant-coefficient Helmholtz operator
-    /// (the default).
+    /// (the default): [`KrylovMomentum`].
     Krylov(KrylovParams),
-    /// The paper's SOR (reference).
+    /// The paper's SOR (reference): [`SorMomentum`].
     Sor(SorParams),
 }
 
@@ -55,10 +51,12 @@ impl Default for PredictorSolver {
 pub struct FlowConfig {
     /// Solver of the momentum predictor.
     pub predictor: PredictorSolver,
-    /// Stopping rule of the variable-density pressure PCG (unused when the density is uniform).
+    /// Stopping rule of the variable-density pressure PCG of the default
+    /// [`SpectralPcg`](super::SpectralPcg) (unused when the density is uniform).
     pub poisson: KrylovParams,
     /// With two viscosities more than 1.5 apart, whether the Krylov predictor's preconditioner
-    /// inverts with both and blends them face by face ([`HelmholtzPrecond::set_two`]; default
+    /// inverts with both and blends them face by face
+    /// ([`HelmholtzPrecond::set_two`](super::HelmholtzPrecond::set_two); default
     /// `true`) instead of inverting with the larger one only. Measured (one core): BiCGStab
     /// iterations a step 9.8 -> 6.6 and step time -14 % for the two red cells at N = 64, 12.9 ->
     /// 7.8 and -28 % for a capsule of viscosity ratio 5 in shear at N = 32; where the membrane
@@ -100,6 +98,11 @@ pub struct StepInfo {
 
 /// Time stepper of the incompressible flow; owns the velocity, the pressure and their history.
 ///
+/// Its two linear solves are strategies: the predictor's [`MomentumSolver`] (built from
+/// [`FlowConfig::predictor`], or [`with_momentum_solver`](Self::with_momentum_solver)) and the
+/// pressure's [`PressureSolver`] (built from [`FlowConfig::poisson`], or
+/// [`with_pressure_solver`](Self::with_pressure_solver)).
+///
 /// A two-phase step for custom drivers: [`prepare`](Self::prepare) computes `v^{n+1}` beside
 /// the state, [`commit`](Self::commit) accepts it, [`discard`](Self::discard) forgets it.
 ///
@@ -122,7 +125,6 @@ pub struct StepInfo {
 /// ```
 pub struct FlowStepper<T: Real> {
     grid: Grid<T>,
-    config: FlowConfig,
     materials: Materials<T>,
     v: VectorField<T>,
     p: Field<T>,
@@ -145,8 +147,7 @@ struct Workspace<T: Real> {
     force: VectorField<T>,
     psi: Field<T>,
     edge_mu: Option<[Field<T>; 3]>,
-    krylov: Option<KrylovWorkspace<VectorField<T>>>,
-    precond: HelmholtzPrecond<T>,
+    momentum: Box<dyn MomentumSolver<T>>,
     projection: Projection<T>,
 }
 
@@ -158,19 +159,18 @@ impl<T: Real> FlowStepper<T> {
     pub fn new(grid: &Grid<T>, materials: Materials<T>, config: FlowConfig) -> Result<Self> {
         materials.rho.validate(grid, "rho")?;
         materials.mu.validate(grid, "mu")?;
-        match config.predictor {
-            PredictorSolver::Sor(s) => s.validate()?,
-            PredictorSolver::Krylov(k) => validate_krylov(k, "FlowConfig::predictor")?,
-        }
-        validate_krylov(config.poisson, "FlowConfig::poisson")?;
+        let momentum: Box<dyn MomentumSolver<T>> = match config.predictor {
+            PredictorSolver::Sor(s) => Box::new(SorMomentum::new(s)?),
+            PredictorSolver::Krylov(k) => {
+                Box::new(KrylovMomentum::new(grid, k, config.two_viscosity_preconditioner)?)
+            }
+        };
+        let projection = Projection::new(grid, config.poisson)?;
         let moving_walls =
             (0..3).any(|d| grid.bc(d).iter().any(|b| b.velocity().iter().any(|&x| x != T::zero())));
         let z = || VectorField::zeros(grid);
-        let krylov =
-            matches!(config.predictor, PredictorSolver::Krylov(_)).then(|| KrylovWorkspace::new(grid));
         let mut s = FlowStepper {
             grid: grid.clone(),
-            config,
             materials,
             v: z(),
             p: Field::zeros(grid),
@@ -189,13 +189,35 @@ impl<T: Real> FlowStepper<T> {
                 force: z(),
                 psi: Field::zeros(grid),
                 edge_mu: None,
-                krylov,
-                precond: HelmholtzPrecond::new(grid)?,
-                projection: Projection::new(grid, config.poisson)?,
+                momentum,
+                projection,
             },
         };
         s.v.fill_ghosts(grid);
         Ok(s)
+    }
+
+    /// Replaces the solver of the predictor (2.35) (the one [`FlowConfig::predictor`] chose).
+    pub fn with_momentum_solver(mut self, solver: Box<dyn MomentumSolver<T>>) -> Self {
+        self.ws.momentum = solver;
+        self
+    }
+
+    /// Replaces the solver of the pressure equation (2.36) (the default
+    /// [`SpectralPcg`](super::SpectralPcg)).
+    pub fn with_pressure_solver(mut self, solver: Box<dyn PressureSolver<T>>) -> Self {
+        self.ws.projection = Projection::with_solver(&self.grid, solver);
+        self
+    }
+
+    /// The solver of the predictor (2.35).
+    pub fn momentum_solver(&self) -> &dyn MomentumSolver<T> {
+        self.ws.momentum.as_ref()
+    }
+
+    /// The solver of the pressure equation (2.36).
+    pub fn pressure_solver(&self) -> &dyn PressureSolver<T> {
+        self.ws.projection.solver()
     }
 
     /// The grid.
@@ -474,24 +496,15 @@ impl<T: Real> FlowStepper<T> {
         ws.vstar.copy_from(&self.v);
         // Extremes of the materials: the preconditioner's reference values and the viscous number.
         let (rho_lo, (mu_lo, mu_hi)) = (rho.range(g).0, self.materials.mu.range(g));
-        let (iters, resid) = match self.config.predictor {
-            PredictorSolver::Krylov(params) => {
-                match &self.materials.mu {
-                    // Two viscosities far apart: blend two inverses (HelmholtzPrecond::set_two).
-                    Coefficient::Field(f)
-                        if self.config.two_viscosity_preconditioner
-                            && mu_hi > T::lit(TWO_VISCOSITY_RATIO) * mu_lo =>
-                    {
-                        ws.precond.set_two(rho_lo * inv_dt, mu_lo, mu_hi, f)
-                    }
-                    _ => ws.precond.set(rho_lo * inv_dt, half * mu_hi),
-                }
-                let kws = ws.krylov.get_or_insert_with(|| KrylovWorkspace::new(g));
-                let info = bicgstab(g, &op, &mut ws.precond, &ws.rhs, &mut ws.vstar, kws, params)?;
-                (info.iterations, info.residual)
-            }
-            PredictorSolver::Sor(params) => sor(g, &op, &ws.rhs, &mut ws.vstar, params)?,
+        let system = MomentumSystem {
+            grid: g,
+            operator: &op,
+            materials: &self.materials,
+            inv_dt,
+            rho_min: rho_lo,
+            mu_range: (mu_lo, mu_hi),
         };
+        let minfo = ws.momentum.solve(&system, &ws.rhs, &mut ws.vstar)?;
         ws.vstar.fill_ghosts(g);
 
         // 5. Projection (2.36)-(2.37).
@@ -507,8 +520,8 @@ impl<T: Real> FlowStepper<T> {
             step: self.step + 1,
             time: (self.time + dt).f64(),
             dt: dt.f64(),
-            predictor_iterations: iters,
-            predictor_residual: resid,
+            predictor_iterations: minfo.iterations,
+            predictor_residual: minfo.residual,
             poisson_iterations: pinfo.iterations,
             cfl: cfl_of(g, &ws.v_new, dt),
             viscous_number: viscous_number(g, rho_lo, mu_hi, dt),
@@ -589,14 +602,4 @@ fn viscous_number<T: Real>(g: &Grid<T>, rho_lo: T, mu_hi: T, dt: T) -> f64 {
     let h = g.h();
     let hmin = h[0].min(h[1]).min(h[2]);
     (mu_hi / rho_lo * dt / (hmin * hmin)).f64()
-}
-
-fn validate_krylov(k: KrylovParams, name: &'static str) -> Result<()> {
-    if !(k.tolerance > 0.0 && k.tolerance < 1.0) {
-        return Err(Error::invalid(name, format!("tolerance {}", k.tolerance), "a tolerance in (0, 1)"));
-    }
-    if k.max_iterations == 0 {
-        return Err(Error::invalid(name, "max_iterations 0", "max_iterations >= 1"));
-    }
-    Ok(())
 }

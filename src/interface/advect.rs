@@ -38,6 +38,7 @@ use super::geometry::{NormalScheme, normal_at};
 use super::mthinc::{CellQuadrature, Reconstruction};
 use crate::grid::ops::grad_v_at_cell;
 use crate::grid::{Field, GHOST, Grid, VectorField};
+use crate::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
 
@@ -114,8 +115,104 @@ pub enum Carried {
     PhiAndCurvature,
 }
 
+/// The strategy that carries a capsule's interface with the flow, once per step: `phi` (2.29)
+/// and, when the capsule bends, the convolved reference curvature `kappa_R tilde` (2.30).
+///
+/// The default is the [`Advector`] (MTHINC with the convolved curvature, AB2) with
+/// [`Settings::advection`](crate::simulation::Settings::advection).
+/// [`Scene::interface_transport`](crate::simulation::Scene::interface_transport) takes a maker
+/// of a user's, called once per capsule with what it must carry ([`Carried`]): a transport
+/// holds one capsule's time history. The simulation proposes a step with
+/// [`advance`](Self::advance) and, when the step is discarded, calls [`undo`](Self::undo);
+/// checkpoints save and restore the history. A transport without a time history keeps the
+/// default `undo`, `checkpoint` and `restore`, which do nothing.
+///
+/// A user transport that wraps the default one and counts its steps:
+///
+/// ```
+/// use eulermembrane::grid::{Field, Grid, VectorField};
+/// use eulermembrane::interface::{AdvectionInfo, AdvectionParams, Advector, InterfaceTransport};
+/// use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
+/// use eulermembrane::prelude::*;
+///
+/// struct Counted(Advector<f64>, usize);
+/// impl InterfaceTransport<f64> for Counted {
+///     fn name(&self) -> &str {
+///         "counted_mthinc"
+///     }
+///     fn advance(
+///         &mut self,
+///         grid: &Grid<f64>,
+///         v: &VectorField<f64>,
+///         dt: f64,
+///         phi: &mut Field<f64>,
+///         kappa: Option<&mut Field<f64>>,
+///     ) -> eulermembrane::Result<AdvectionInfo> {
+///         self.1 += 1;
+///         self.0.advance(grid, v, dt, phi, kappa)
+///     }
+///     fn undo(&mut self) {
+///         self.0.undo()
+///     }
+///     fn checkpoint(&self, w: &mut CheckpointWriter, prefix: &str) {
+///         self.0.checkpoint(w, prefix)
+///     }
+///     fn restore(&mut self, r: &CheckpointReader, prefix: &str) -> eulermembrane::Result<()> {
+///         self.0.restore(r, prefix)
+///     }
+/// }
+///
+/// let grid = Grid::<f64>::periodic([16; 3], [0.0; 3], [1.0; 3])?;
+/// let mut sim = Scene::new(grid, Phase::new(1.0, 1.0)?)
+///     .capsule(Sphere::new([0.5; 3], 0.25)?)
+///     .interface_transport(|grid, carried| {
+///         let adv = Advector::new(grid, AdvectionParams::default(), carried)?;
+///         Ok(Box::new(Counted(adv, 0)) as Box<dyn InterfaceTransport<f64>>)
+///     })
+///     .build()?;
+/// sim.step(1e-3)?;
+/// assert!(sim.numerics().contains("transport=counted_mthinc"));
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
+pub trait InterfaceTransport<T: Real>: Send + Sync {
+    /// A short snake_case name, for [`Simulation::numerics`](crate::simulation::Simulation::numerics).
+    fn name(&self) -> &str;
+
+    /// Advances `phi` (and `kappa_R tilde`, given exactly when the transport was made with
+    /// [`Carried::PhiAndCurvature`]) by one step `dt` with the velocity `v^n` (ghosts filled):
+    /// on return their interiors hold time level `n + 1`; their ghosts may be stale. Keeps what
+    /// [`undo`](Self::undo) needs.
+    ///
+    /// # Errors
+    /// Fields of another grid, a non-finite result; the step then fails, the simulation calls
+    /// [`undo`](Self::undo) and its state is as it was.
+    fn advance(
+        &mut self,
+        grid: &Grid<T>,
+        v: &VectorField<T>,
+        dt: T,
+        phi: &mut Field<T>,
+        kappa: Option<&mut Field<T>>,
+    ) -> Result<AdvectionInfo>;
+
+    /// Returns the transport's own state (its time history) to what it was before the last
+    /// [`advance`](Self::advance) (called once, when that step is discarded).
+    fn undo(&mut self) {}
+
+    /// Adds the transport's own state to a checkpoint, with names prefixed by `prefix`.
+    fn checkpoint(&self, _w: &mut CheckpointWriter, _prefix: &str) {}
+
+    /// Restores the state written by [`checkpoint`](Self::checkpoint) with the same `prefix`.
+    ///
+    /// # Errors
+    /// A malformed or missing entry; the transport's state is then unchanged.
+    fn restore(&mut self, _r: &CheckpointReader, _prefix: &str) -> Result<()> {
+        Ok(())
+    }
+}
+
 /// MTHINC advection of `phi`, and optionally of `kappa_R tilde`, with its work arrays and AB2
-/// history. Create once per grid; [`Advector::step`] allocates nothing once the band list has
+/// history: the default [`InterfaceTransport`]. Create once per grid; [`Advector::step`] allocates nothing once the band list has
 /// reached its largest size.
 #[derive(Debug, Clone)]
 pub struct Advector<T> {
@@ -134,6 +231,9 @@ pub struct Advector<T> {
     rhs_kappa: Vec<T>,
     dt_prev: Option<T>,
     curvature: bool,
+    /// The history before the last [`InterfaceTransport::advance`]: `dt_prev` and the
+    /// right-hand sides (for [`InterfaceTransport::undo`]).
+    saved: (Option<T>, Vec<T>, Vec<T>),
 }
 
 impl<T: Real> Advector<T> {
@@ -183,6 +283,7 @@ impl<T: Real> Advector<T> {
             rhs_kappa: vec![T::zero(); k],
             dt_prev: None,
             curvature: with_curvature,
+            saved: (None, Vec::new(), Vec::new()),
         })
     }
 
@@ -420,6 +521,65 @@ impl<T: Real> Advector<T> {
                 .map(|(row, (p, rp))| kern.row::<false>(row, p, rp, &mut [], &mut []))
                 .reduce(|| false, |a, b| a || b)
         }
+    }
+}
+
+impl<T: Real> InterfaceTransport<T> for Advector<T> {
+    fn name(&self) -> &str {
+        if self.curvature { "mthinc_convolved_curvature" } else { "mthinc" }
+    }
+
+    /// Saves the AB2 history, then [`Advector::step`].
+    fn advance(
+        &mut self,
+        grid: &Grid<T>,
+        v: &VectorField<T>,
+        dt: T,
+        phi: &mut Field<T>,
+        kappa: Option<&mut Field<T>>,
+    ) -> Result<AdvectionInfo> {
+        self.saved.0 = self.dt_prev;
+        if self.dt_prev.is_some() {
+            self.saved.1.clear();
+            self.saved.1.extend_from_slice(&self.rhs_phi);
+            self.saved.2.clear();
+            self.saved.2.extend_from_slice(&self.rhs_kappa);
+        }
+        self.step(grid, v, dt, phi, kappa)
+    }
+
+    fn undo(&mut self) {
+        match self.saved.0 {
+            Some(dt_prev) => {
+                self.rhs_phi.copy_from_slice(&self.saved.1);
+                self.rhs_kappa.copy_from_slice(&self.saved.2);
+                self.dt_prev = Some(dt_prev);
+            }
+            None => self.reset_history(),
+        }
+    }
+
+    /// Writes `adv_dt_prev`, `adv_rhs_phi` and `adv_rhs_kappa` (nothing before the first
+    /// step).
+    fn checkpoint(&self, w: &mut CheckpointWriter, prefix: &str) {
+        if let Some((dt_prev, rp, rk)) = self.history() {
+            w.number(&format!("{prefix}adv_dt_prev"), dt_prev.f64());
+            w.array(&format!("{prefix}adv_rhs_phi"), rp).array(&format!("{prefix}adv_rhs_kappa"), rk);
+        }
+    }
+
+    /// Reads what [`checkpoint`](InterfaceTransport::checkpoint) wrote, or forgets the history
+    /// where it wrote nothing; errors as [`Advector::restore_history`].
+    fn restore(&mut self, r: &CheckpointReader, prefix: &str) -> Result<()> {
+        let dt_name = format!("{prefix}adv_dt_prev");
+        if !r.has(&dt_name) {
+            self.reset_history();
+            return Ok(());
+        }
+        let dt_prev = T::lit(r.number(&dt_name)?);
+        let rp = r.array::<T>(&format!("{prefix}adv_rhs_phi"), self.rhs_phi.len())?;
+        let rk = r.array::<T>(&format!("{prefix}adv_rhs_kappa"), self.rhs_kappa.len())?;
+        self.restore_history(dt_prev, &rp, &rk)
     }
 }
 

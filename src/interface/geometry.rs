@@ -742,6 +742,89 @@ impl<T: Real> Geometry<T> {
     }
 }
 
+/// The strategy that estimates the unit normal `n = grad phi / |grad phi|` (2.24) of a capsule
+/// from its `phi`, once per step: the `n` of the membrane mechanics (`P = I - n n` in the
+/// stress, the re-set of `G_s`, the bending force).
+///
+/// The default is a [`Geometry`] with [`Settings::normals`](crate::simulation::Settings::normals)
+/// (a [`NormalScheme`], [`Atanh4`](NormalScheme::Atanh4) unless set): the enum names the
+/// construction, the `Geometry` adds the cache of `psi` that makes it cost one pass.
+/// [`Scene::normal_estimator`](crate::simulation::Scene::normal_estimator) takes a user's; the
+/// simulation calls it for every capsule after each transport, through one dynamic dispatch,
+/// and it must not allocate in the step.
+///
+/// A user estimator that wraps the default one and counts its calls:
+///
+/// ```
+/// use eulermembrane::grid::{Field, Grid};
+/// use eulermembrane::interface::geometry::{Geometry, NormalEstimator, NormalScheme, PhiRange};
+/// use eulermembrane::prelude::*;
+///
+/// struct Counted(Geometry<f64>, usize);
+/// impl NormalEstimator<f64> for Counted {
+///     fn name(&self) -> &str {
+///         "counted_atanh4"
+///     }
+///     fn estimate(
+///         &mut self,
+///         grid: &Grid<f64>,
+///         phi: &Field<f64>,
+///         band: PhiRange<f64>,
+///         out: &mut [Field<f64>; 3],
+///     ) -> eulermembrane::Result<()> {
+///         self.1 += 1;
+///         self.0.estimate(grid, phi, band, out)
+///     }
+/// }
+///
+/// let grid = Grid::<f64>::periodic([16; 3], [0.0; 3], [1.0; 3])?;
+/// let mut sim = Scene::new(grid.clone(), Phase::new(1.0, 1.0)?)
+///     .capsule(Sphere::new([0.5; 3], 0.25)?)
+///     .normal_estimator(Counted(Geometry::new(&grid, NormalScheme::Atanh4), 0))
+///     .build()?;
+/// sim.step(1e-3)?;
+/// assert!(sim.numerics().contains("normals=counted_atanh4"));
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
+pub trait NormalEstimator<T: Real>: Send + Sync {
+    /// A short snake_case name, for [`Simulation::numerics`](crate::simulation::Simulation::numerics).
+    fn name(&self) -> &str;
+
+    /// Unit normals (pointing into the capsule) at the interior cells where `band` contains
+    /// `phi` (ghosts of `phi` filled), into the three cell-centred components of `out`; zero
+    /// elsewhere and where the gradient vanishes. The ghosts of `out` are the caller's.
+    ///
+    /// # Errors
+    /// Whatever keeps the estimate from being made; the step then fails and leaves the state
+    /// as it was.
+    fn estimate(
+        &mut self,
+        grid: &Grid<T>,
+        phi: &Field<T>,
+        band: PhiRange<T>,
+        out: &mut [Field<T>; 3],
+    ) -> crate::Result<()>;
+}
+
+/// The default estimator: [`Geometry::update`] then [`Geometry::normals`].
+impl<T: Real> NormalEstimator<T> for Geometry<T> {
+    fn name(&self) -> &str {
+        self.scheme.name()
+    }
+
+    fn estimate(
+        &mut self,
+        grid: &Grid<T>,
+        phi: &Field<T>,
+        band: PhiRange<T>,
+        out: &mut [Field<T>; 3],
+    ) -> crate::Result<()> {
+        self.update(grid, phi);
+        self.normals(grid, phi, band, out);
+        Ok(())
+    }
+}
+
 /// `delta = |grad phi|` (2.26) at the interior cells of `band` into `out`; zero elsewhere.
 pub fn delta_in_band<T: Real>(grid: &Grid<T>, phi: &Field<T>, band: PhiRange<T>, out: &mut Field<T>) {
     crate::grid::ops::par_interior(grid, &mut out.data, |idx, _, _, _| {

@@ -9,11 +9,13 @@
 //! n = grad phi / |grad phi|,  delta = |grad phi|,  kappa = -P . grad n . P   (2.24), (2.26), (2.9)
 //! ```
 //!
-//! - [`geometry`]: normals (several constructions, [`NormalScheme`]), delta, projector,
+//! - [`geometry`]: normals (several constructions, [`NormalScheme`]; the [`NormalEstimator`]
+//!   strategy), delta, projector,
 //!   curvature; per cell and per field. Its docs state the sign conventions of the crate.
 //! - [`mthinc`]: the reconstruction of one cell (2.42)-(2.43) and its face averages (2.48).
 //! - [`convolved`]: the convolved-curvature profile (2.45)-(2.47) and the stretching term.
-//! - [`advect`]: the [`Advector`], one AB2 step of both fields (2.29)-(2.30).
+//! - [`advect`]: the [`Advector`], one AB2 step of both fields (2.29)-(2.30), the default
+//!   [`InterfaceTransport`].
 //! - [`shapes`]: smoothed `phi` and `kappa_R tilde` of spheres, ellipsoids, circles, ellipses,
 //!   the biconcave red-cell shape and any signed-distance function.
 //!
@@ -41,6 +43,6 @@ pub mod geometry;
 pub mod mthinc;
 pub mod shapes;
 
-pub use advect::{AdvectionInfo, AdvectionParams, Advector, Carried};
-pub use geometry::{Curvature, Geometry, NormalScheme, PhiRange};
+pub use advect::{AdvectionInfo, AdvectionParams, Advector, Carried, InterfaceTransport};
+pub use geometry::{Curvature, Geometry, NormalEstimator, NormalScheme, PhiRange};
 pub use mthinc::{CellQuadrature, Reconstruction};

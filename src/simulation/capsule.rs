@@ -4,11 +4,11 @@
 
 use super::effect::{LevelChoice, MembraneView, Needs};
 use super::effects::reference_integral;
-use super::scene::{ReferenceArea, Settings};
+use super::scene::{ReferenceArea, Settings, TransportMaker};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::interface::geometry::{PhiRange, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
-use crate::interface::{Advector, Carried, Geometry};
+use crate::interface::{Carried, InterfaceTransport, NormalEstimator};
 use crate::membrane::{Band, StrainTransport, fill_projector};
 use crate::{Real, Result};
 
@@ -34,12 +34,10 @@ pub(crate) struct Capsule<T: Real> {
     pub(crate) next: Level<T>,
     /// `G_s^n` (only with elasticity).
     pub(crate) gs: Option<SymField<T>>,
-    pub(crate) advector: Advector<T>,
-    pub(crate) geometry: Geometry<T>,
+    /// The transport of `phi` (and `kappa_R tilde`) (2.29)-(2.30).
+    pub(crate) transport: Box<dyn InterfaceTransport<T>>,
     /// The `G_s` transport (2.40) (only with `G_s`).
     pub(crate) strain: Option<StrainTransport<T>>,
-    /// Saved AB2 history of the advector (restored when a step fails).
-    saved: (Option<T>, Vec<T>, Vec<T>),
     /// The reference area `sum delta / j_s h^3` that [`ReferenceArea::Conserved`]
     /// restores after each step (set from the initial state and by a pre-stretch); `None`
     /// without that setting or without elasticity.
@@ -65,11 +63,10 @@ impl<T: Real> Level<T> {
     }
 
     /// Recomputes `delta`, the normals and the band from `phi` (ghosts of `phi` filled here).
-    pub(crate) fn derive(&mut self, grid: &Grid<T>, geometry: &mut Geometry<T>) -> Result<()> {
+    pub(crate) fn derive(&mut self, grid: &Grid<T>, normals: &mut dyn NormalEstimator<T>) -> Result<()> {
         self.phi.fill_ghosts(grid);
-        geometry.update(grid, &self.phi);
         let band = geometry_band();
-        geometry.normals(grid, &self.phi, band, &mut self.normal);
+        normals.estimate(grid, &self.phi, band, &mut self.normal)?;
         for c in self.normal.iter_mut() {
             c.fill_ghosts(grid);
         }
@@ -87,12 +84,15 @@ impl<T: Real> Level<T> {
 }
 
 impl<T: Real> Capsule<T> {
-    /// A capsule of `shape` carrying the fields of `needs`.
+    /// A capsule of `shape` carrying the fields of `needs`, its normals from `normals`, its
+    /// interface carried by the transport `make` returns.
     pub(crate) fn new(
         grid: &Grid<T>,
         shape: &dyn Shape,
         settings: &Settings<T>,
         needs: Needs,
+        normals: &mut dyn NormalEstimator<T>,
+        make: &TransportMaker<T>,
     ) -> Result<Self> {
         let (smoothing, epsilon) = (&settings.smoothing, settings.epsilon);
         let curvature = needs.curvature;
@@ -104,8 +104,7 @@ impl<T: Real> Capsule<T> {
         } else {
             cur.phi = smoothed_phi(grid, shape, smoothing)?;
         }
-        let mut geometry = Geometry::new(grid, settings.normals);
-        cur.derive(grid, &mut geometry)?;
+        cur.derive(grid, normals)?;
         let next = Level::zeros(grid, curvature, epsilon)?;
         let gs = needs.strain.then(|| {
             // The reference state: G_s = P (2.22) everywhere the normal is defined.
@@ -125,14 +124,8 @@ impl<T: Real> Capsule<T> {
             cur,
             next,
             gs,
-            advector: Advector::new(
-                grid,
-                settings.advection,
-                if curvature { Carried::PhiAndCurvature } else { Carried::Phi },
-            )?,
-            geometry,
+            transport: make(grid, if curvature { Carried::PhiAndCurvature } else { Carried::Phi })?,
             strain,
-            saved: (None, Vec::new(), Vec::new()),
             reference_target: None,
         };
         if settings.reference_area == ReferenceArea::Conserved {
@@ -193,31 +186,23 @@ impl<T: Real> Capsule<T> {
     /// Steps 1-2 of the time step for this capsule: advects `phi` (and `kappa_R tilde`) with
     /// `v^n` into the next level and derives its geometry and band there. The state is not
     /// touched; on error call [`discard`](Self::discard).
-    pub(crate) fn prepare(&mut self, grid: &Grid<T>, v: &VectorField<T>, dt: T) -> Result<usize> {
-        self.saved.0 = None;
-        if let Some((dt_prev, rp, rk)) = self.advector.history() {
-            self.saved.0 = Some(dt_prev);
-            self.saved.1.clear();
-            self.saved.1.extend_from_slice(rp);
-            self.saved.2.clear();
-            self.saved.2.extend_from_slice(rk);
-        }
+    pub(crate) fn prepare(
+        &mut self,
+        grid: &Grid<T>,
+        v: &VectorField<T>,
+        dt: T,
+        normals: &mut dyn NormalEstimator<T>,
+    ) -> Result<usize> {
         self.next.copy_from(&self.cur);
-        let info = self.advector.step(grid, v, dt, &mut self.next.phi, self.next.kappa.as_mut())?;
-        self.next.derive(grid, &mut self.geometry)?;
+        let info = self.transport.advance(grid, v, dt, &mut self.next.phi, self.next.kappa.as_mut())?;
+        self.next.derive(grid, normals)?;
         Ok(info.profile_cells)
     }
 
-    /// Undoes what [`prepare`](Self::prepare) changed outside the next level: the advector's
+    /// Undoes what [`prepare`](Self::prepare) changed outside the next level: the transport's
     /// history.
     pub(crate) fn discard(&mut self) {
-        match self.saved.0 {
-            Some(dt_prev) => {
-                // Same grid and same lengths: cannot fail.
-                let _ = self.advector.restore_history(dt_prev, &self.saved.1, &self.saved.2);
-            }
-            None => self.advector.reset_history(),
-        }
+        self.transport.undo();
     }
 
     /// Makes the next level the state (after the `G_s` commit).

@@ -71,7 +71,7 @@ pub mod timestep;
 pub use effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
 pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
 pub use observer::{Observer, RunSummary};
-pub use scene::{GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings};
+pub use scene::{GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings, TransportMaker};
 pub use timestep::{AdaptiveDt, FixedDt, TimeStepping};
 
 use crate::diagnostics::{
@@ -81,12 +81,14 @@ use crate::error::positive;
 use crate::fluid::{Coefficient, Materials};
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField};
+use crate::interface::NormalEstimator;
 use crate::membrane::Band;
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
 use capsule::Capsule;
 use effect::LevelChoice;
 use effects::{EffectForcing, EffectImplicit};
+use scene::Strategies;
 
 pub use crate::fluid::FlowStepper;
 
@@ -165,6 +167,8 @@ pub struct Simulation<T: Real> {
     inside: Phase<T>,
     effects: Vec<Box<dyn Effect<T>>>,
     settings: Settings<T>,
+    /// The estimator of every capsule's normals.
+    normals: Box<dyn NormalEstimator<T>>,
     /// `v^n` kept across the flow step for the `G_s` transport (only with `G_s`).
     v_old: Option<VectorField<T>>,
     /// Scratch of [`Simulation::energy`]: the external force on the faces.
@@ -185,19 +189,27 @@ impl<T: Real> Simulation<T> {
         shapes: Vec<Box<dyn crate::interface::shapes::Shape + Send>>,
         effects: Vec<Box<dyn Effect<T>>>,
         settings: Settings<T>,
+        mut strategies: Strategies<T>,
     ) -> Result<Self> {
+        let (mut normals, make) = strategies.interface(&grid, &settings);
         let mut capsules = Vec::with_capacity(shapes.len());
         for (c, shape) in shapes.iter().enumerate() {
             let needs = effects.iter().filter(|e| e.acts_on(c)).fold(Needs::NONE, |n, e| {
                 let m = e.needs();
                 Needs { strain: n.strain || m.strain, curvature: n.curvature || m.curvature }
             });
-            let cap = Capsule::new(&grid, shape.as_ref(), &settings, needs)?;
+            let cap = Capsule::new(&grid, shape.as_ref(), &settings, needs, normals.as_mut(), &make)?;
             check_wall_distance(&grid, &cap.cur.phi, settings.smoothing.beta, c)?;
             check_extent(&grid, &cap.cur.phi, shape.volume(), c)?;
             capsules.push(cap);
         }
-        let flow = FlowStepper::new(&grid, Materials::uniform(outside.rho, outside.mu)?, settings.flow)?;
+        let mut flow = FlowStepper::new(&grid, Materials::uniform(outside.rho, outside.mu)?, settings.flow)?;
+        if let Some(m) = strategies.momentum {
+            flow = flow.with_momentum_solver(m);
+        }
+        if let Some(p) = strategies.pressure {
+            flow = flow.with_pressure_solver(p);
+        }
         let mut sim = Simulation {
             v_old: capsules.iter().any(|c| c.gs.is_some()).then(|| VectorField::zeros(&grid)),
             grid,
@@ -207,6 +219,7 @@ impl<T: Real> Simulation<T> {
             inside,
             effects,
             settings,
+            normals,
             force: None,
             ledger: None,
             pending: None,
@@ -326,7 +339,8 @@ impl<T: Real> Simulation<T> {
         // 1-2: per capsule, beside the state.
         for c in 0..self.capsules.len() {
             self.prepared_capsules = c + 1;
-            profile_cells += self.capsules[c].prepare(grid, self.flow.velocity(), dt)?;
+            profile_cells +=
+                self.capsules[c].prepare(grid, self.flow.velocity(), dt, self.normals.as_mut())?;
         }
         // 3: the effects, at the new level with G_s^n.
         let time = self.flow.time();

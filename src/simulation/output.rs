@@ -28,6 +28,22 @@ impl<T: Real> Simulation<T> {
         s
     }
 
+    /// The numerical strategies in one line, by their names: the normal estimator, each
+    /// capsule's interface transport, the momentum and the pressure solvers, e.g.
+    /// `normals=atanh4; transport=mthinc; momentum=bicgstab; pressure=spectral_pcg`.
+    /// Checkpoints record it beside the physics (a run may continue with other solvers, so a
+    /// restore does not compare it).
+    pub fn numerics(&self) -> String {
+        let transports: Vec<&str> = self.capsules.iter().map(|c| c.transport.name()).collect();
+        format!(
+            "normals={}; transport={}; momentum={}; pressure={}",
+            self.normals.name(),
+            transports.join(","),
+            self.flow.momentum_solver().name(),
+            self.flow.pressure_solver().name()
+        )
+    }
+
     /// Writes a ParaView snapshot (VTK XML image data, raw appended binary): `phi` (all
     /// capsules together, and per capsule when there are several), the velocity at cell centres,
     /// the pressure, `delta`, and with elasticity the principal tensions `t1`, `t2` and the area
@@ -81,7 +97,7 @@ impl<T: Real> Simulation<T> {
     pub fn checkpoint(&self, path: impl AsRef<Path>) -> Result<()> {
         let mut w = CheckpointWriter::new();
         self.flow.checkpoint(&mut w, "flow.");
-        w.text("physics", &self.physics());
+        w.text("physics", &self.physics()).text("numerics", &self.numerics());
         w.number("capsules", self.capsules.len() as f64);
         for (c, cap) in self.capsules.iter().enumerate() {
             let p = format!("capsule{c}.");
@@ -97,10 +113,7 @@ impl<T: Real> Simulation<T> {
             if let Some(target) = cap.reference_target {
                 w.number(&format!("{p}reference_target"), target);
             }
-            if let Some((dt_prev, rp, rk)) = cap.advector.history() {
-                w.number(&format!("{p}adv_dt_prev"), dt_prev.f64());
-                w.array(&format!("{p}adv_rhs_phi"), rp).array(&format!("{p}adv_rhs_kappa"), rk);
-            }
+            cap.transport.checkpoint(&mut w, &p);
             if let Some((cells, tend)) = cap.strain.as_ref().and_then(|s| s.history()) {
                 let cells: Vec<f64> = cells.iter().map(|&i| i as f64).collect();
                 let flat: Vec<T> = tend.iter().flat_map(|t| t.iter().copied()).collect();
@@ -112,7 +125,11 @@ impl<T: Real> Simulation<T> {
     }
 
     /// Restores a state written by [`checkpoint`](Self::checkpoint) into a simulation built
-    /// from the same scene. The state is replaced only if everything could be read.
+    /// from the same scene. The state is replaced only if everything could be read, except the
+    /// interface transports' histories
+    /// ([`InterfaceTransport::restore`](crate::interface::InterfaceTransport::restore)), read
+    /// last: a transport that refuses its entries leaves the fields restored and the error
+    /// returned.
     ///
     /// # Errors
     /// [`Error::Io`] for an unreadable or malformed file; [`Error::InvalidParameter`] for a
@@ -153,16 +170,6 @@ impl<T: Real> Simulation<T> {
                 }
                 None => None,
             };
-            let adv = if r.has(&format!("{p}adv_dt_prev")) {
-                let (n, nk) = (len, if cap.cur.kappa.is_some() { len } else { 0 });
-                Some((
-                    T::lit(r.number(&format!("{p}adv_dt_prev"))?),
-                    r.array::<T>(&format!("{p}adv_rhs_phi"), n)?,
-                    r.array::<T>(&format!("{p}adv_rhs_kappa"), nk)?,
-                ))
-            } else {
-                None
-            };
             let strain = if r.has(&format!("{p}strain_count")) {
                 let count = r.number(&format!("{p}strain_count"))? as usize;
                 let cells: Vec<f64> = r.array(&format!("{p}strain_cells"), count)?;
@@ -180,22 +187,19 @@ impl<T: Real> Simulation<T> {
             } else {
                 None
             };
-            read.push((phi, kappa, gs, adv, strain, target));
+            read.push((phi, kappa, gs, strain, target));
         }
         // Then replace: the flow first (it validates the grid), then the capsules.
         self.flow.restore(&r, "flow.")?;
-        for (cap, (phi, kappa, gs, adv, strain, target)) in self.capsules.iter_mut().zip(read) {
+        for (c, (cap, (phi, kappa, gs, strain, target))) in self.capsules.iter_mut().zip(read).enumerate() {
             if target.is_some() {
                 cap.reference_target = target;
             }
             cap.cur.phi = phi;
             cap.cur.kappa = kappa;
             cap.gs = gs;
-            cap.cur.derive(g, &mut cap.geometry)?;
-            match adv {
-                Some((dt_prev, rp, rk)) => cap.advector.restore_history(dt_prev, &rp, &rk)?,
-                None => cap.advector.reset_history(),
-            }
+            cap.cur.derive(g, self.normals.as_mut())?;
+            cap.transport.restore(&r, &format!("capsule{c}."))?;
             if let Some(s) = cap.strain.as_mut() {
                 match strain {
                     Some((cells, tend)) => s.restore_history(&cells, &tend)?,

@@ -6,11 +6,12 @@ use super::Simulation;
 use super::effect::{Effect, Setup};
 use super::effects::{Bending, Elasticity, SurfaceLoad};
 use crate::error::positive;
-use crate::fluid::BodyForce;
-use crate::fluid::FlowConfig;
+use crate::fluid::{BodyForce, FlowConfig, MomentumSolver, PressureSolver};
 use crate::grid::Grid;
 use crate::interface::shapes::{Shape, Smoothing};
-use crate::interface::{AdvectionParams, NormalScheme};
+use crate::interface::{
+    AdvectionParams, Advector, Carried, Geometry, InterfaceTransport, NormalEstimator, NormalScheme,
+};
 use crate::membrane::{BendingForm, StrainAdvection, SurfaceLaw};
 use crate::{Error, Real, Result};
 
@@ -37,10 +38,12 @@ impl<T: Real> Phase<T> {
 pub struct Settings<T> {
     /// Flow solver settings (predictor solver, tolerances).
     pub flow: FlowConfig,
-    /// Interface advection (MTHINC sharpness `beta`, normals of the reconstruction).
+    /// Interface advection (MTHINC sharpness `beta`, normals of the reconstruction) of the
+    /// default [`InterfaceTransport`], the [`Advector`].
     pub advection: AdvectionParams<T>,
     /// Normals of the membrane mechanics (the `n` of `P = I - n n` in the stress, the re-set of
-    /// `G_s` and the bending curvature). Default [`NormalScheme::Atanh4`].
+    /// `G_s` and the bending curvature): the default [`NormalEstimator`], a [`Geometry`] with
+    /// this scheme. Default [`NormalScheme::Atanh4`].
     pub normals: NormalScheme,
     /// The `epsilon` of the membrane band `delta h >= epsilon` (Sec. 2.2.2): outside it `G_s` is
     /// re-set to `P` and no membrane force acts. Default 0.01 (the band then carries 99 % of
@@ -204,7 +207,40 @@ pub struct Scene<T: Real> {
     pub(crate) capsules: Vec<Box<dyn Shape + Send>>,
     pub(crate) effects: Vec<Box<dyn Effect<T>>>,
     pub(crate) settings: Settings<T>,
+    pub(crate) strategies: Strategies<T>,
     pub(crate) errors: Vec<Error>,
+}
+
+/// What makes the [`InterfaceTransport`] of one capsule, given the grid and what the capsule
+/// carries (see [`Scene::interface_transport`]).
+pub type TransportMaker<T> = Box<dyn Fn(&Grid<T>, Carried) -> Result<Box<dyn InterfaceTransport<T>>>>;
+
+/// The strategies a user put in place of the defaults of [`Settings`] (`None`: the default).
+#[derive(Default)]
+pub(crate) struct Strategies<T: Real> {
+    pub(crate) normals: Option<Box<dyn NormalEstimator<T>>>,
+    pub(crate) transport: Option<TransportMaker<T>>,
+    pub(crate) momentum: Option<Box<dyn MomentumSolver<T>>>,
+    pub(crate) pressure: Option<Box<dyn PressureSolver<T>>>,
+}
+
+impl<T: Real> Strategies<T> {
+    /// The normal estimator and the transport maker, the defaults of `settings` where the
+    /// scene has none; the flow solvers stay optional (the flow stepper builds its defaults).
+    pub(crate) fn interface(
+        &mut self,
+        grid: &Grid<T>,
+        settings: &Settings<T>,
+    ) -> (Box<dyn NormalEstimator<T>>, TransportMaker<T>) {
+        let normals = self.normals.take().unwrap_or_else(|| Box::new(Geometry::new(grid, settings.normals)));
+        let params = settings.advection;
+        let transport = self.transport.take().unwrap_or_else(|| {
+            Box::new(move |g: &Grid<T>, carried: Carried| -> Result<Box<dyn InterfaceTransport<T>>> {
+                Ok(Box::new(Advector::new(g, params, carried)?))
+            })
+        });
+        (normals, transport)
+    }
 }
 
 impl<T: Real> Scene<T> {
@@ -218,6 +254,7 @@ impl<T: Real> Scene<T> {
             capsules: Vec::new(),
             effects: Vec::new(),
             settings: Settings::default(),
+            strategies: Strategies::default(),
             errors: Vec::new(),
         }
     }
@@ -295,6 +332,40 @@ impl<T: Real> Scene<T> {
         self
     }
 
+    /// Estimates the capsules' normals with `estimator` instead of [`Settings::normals`] (see
+    /// [`NormalEstimator`]; one estimator serves every capsule, in turn).
+    /// [`BendingForm::EnergyGradient`](crate::membrane::BendingForm::EnergyGradient) still
+    /// differences `psi` with the stencil of [`Settings::normals`].
+    pub fn normal_estimator(mut self, estimator: impl NormalEstimator<T> + 'static) -> Self {
+        self.strategies.normals = Some(Box::new(estimator));
+        self
+    }
+
+    /// Carries each capsule's interface with the [`InterfaceTransport`] that `make` returns
+    /// (called once per capsule by [`build`](Self::build), with what the capsule must carry)
+    /// instead of the [`Advector`] with [`Settings::advection`].
+    pub fn interface_transport(
+        mut self,
+        make: impl Fn(&Grid<T>, Carried) -> Result<Box<dyn InterfaceTransport<T>>> + 'static,
+    ) -> Self {
+        self.strategies.transport = Some(Box::new(make));
+        self
+    }
+
+    /// Solves the momentum predictor (2.35) with `solver` instead of the one
+    /// [`FlowConfig::predictor`] names (see [`MomentumSolver`]).
+    pub fn momentum_solver(mut self, solver: impl MomentumSolver<T> + 'static) -> Self {
+        self.strategies.momentum = Some(Box::new(solver));
+        self
+    }
+
+    /// Solves the pressure equation (2.36) with `solver` instead of the default
+    /// [`SpectralPcg`](crate::fluid::SpectralPcg) (see [`PressureSolver`]).
+    pub fn pressure_solver(mut self, solver: impl PressureSolver<T> + 'static) -> Self {
+        self.strategies.pressure = Some(Box::new(solver));
+        self
+    }
+
     /// The grid.
     pub fn grid(&self) -> &Grid<T> {
         &self.grid
@@ -339,6 +410,14 @@ impl<T: Real> Scene<T> {
                 ));
             }
         }
-        Simulation::from_scene(self.grid, self.outside, self.inside, self.capsules, effects, self.settings)
+        Simulation::from_scene(
+            self.grid,
+            self.outside,
+            self.inside,
+            self.capsules,
+            effects,
+            self.settings,
+            self.strategies,
+        )
     }
 }
