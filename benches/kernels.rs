@@ -213,7 +213,7 @@ fn kernels_of<T: Real>(c: &mut Criterion<CpuTime>, ty: &str, n: usize) {
     // The same solve with the two-viscosity preconditioner (HelmholtzPrecond::set_two).
     let Coefficient::Field(mu) = &mixture.mu else { unreachable!("a viscosity ratio 5 gives a field") };
     let mut pc2 = HelmholtzPrecond::new(&g).unwrap();
-    pc2.set_two(T::one() / s.dt, T::one(), lit(5.0), mu);
+    pc2.set_two(T::one() / s.dt, lit(0.5), T::one(), lit(5.0), mu);
     sol.copy_from(&s.v);
     let its = bicgstab(&g, &coupled, &mut pc2, &rhs, &mut sol, &mut ws, params).unwrap().iterations;
     eprintln!("{ty} {n}^3: krylov_solve_mixture_membrane_two takes {its} operator applications");

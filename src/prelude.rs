@@ -14,6 +14,7 @@
 
 pub use crate::fluid::{
     BodyForce, FlowConfig, FlowStepper, Forcing, ImplicitTerm, Materials, MomentumSolver, PressureSolver,
+    ViscousScheme,
 };
 pub use crate::grid::{Boundary, Field, Grid, SymField, VectorField};
 pub use crate::interface::shapes::{Biconcave, Circle, Ellipse, Ellipsoid, Shape, Sphere};

@@ -19,4 +19,4 @@ pub use momentum::{
 pub use projection::{PressureSolver, SpectralPcg};
 pub use sor::{SorMomentum, SorParams};
 pub use spectral::{AxisKind, Location, SpectralSolver};
-pub use stepper::{FlowConfig, FlowStepper, PredictorSolver, StepInfo};
+pub use stepper::{FlowConfig, FlowStepper, PredictorSolver, StepInfo, ViscousScheme};

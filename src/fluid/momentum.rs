@@ -317,11 +317,13 @@ pub(crate) fn uniform_helmholtz<T: Real>(
 /// The variable-coefficient fast path: the arithmetic of [`viscous_at`] and
 /// [`face_density`] term by term (so the result is the same to the bit), over x-lines with
 /// slices instead of a closure per face, which lets the compiler vectorise.
+#[allow(clippy::too_many_arguments)]
 fn variable_helmholtz<T: Real>(
     grid: &Grid<T>,
     x: &VectorField<T>,
     rho: &Coefficient<T>,
     inv_dt: T,
+    theta: T,
     mu: &Field<T>,
     edge: Option<&[Field<T>; 3]>,
     y: &mut VectorField<T>,
@@ -374,7 +376,7 @@ fn variable_helmholtz<T: Real>(
                 rf * inv_dt
             };
             for i in 0..nx {
-                out[i] = diag(i) * x0[i] - half * out[i];
+                out[i] = diag(i) * x0[i] - theta * out[i];
             }
             for i in wall_faces(grid, c, j, k) {
                 out[i] = diag(i) * x0[i];
@@ -469,10 +471,13 @@ pub trait ImplicitTerm<T: Real>: Sync {
     fn apply_at(&self, grid: &Grid<T>, x: &VectorField<T>, c: usize, idx: usize) -> T;
 }
 
-/// The predictor operator `P` of (2.35), matrix-free.
+/// The predictor operator `P = rho/dt - theta V` of (2.35) (`theta` = 1/2, Crank–Nicolson, in
+/// the paper; see [`ViscousScheme`](super::ViscousScheme)), matrix-free.
 pub struct Predictor<'a, T: Real> {
     pub(crate) grid: &'a Grid<T>,
     pub(crate) inv_dt: T,
+    /// The implicit weight `theta` of the viscous term.
+    pub(crate) theta: T,
     pub(crate) rho: &'a Coefficient<T>,
     pub(crate) mu: ViscosityView<'a, T>,
     pub(crate) extra: Option<&'a dyn ImplicitTerm<T>>,
@@ -491,10 +496,17 @@ impl<'a, T: Real> Predictor<'a, T> {
         Predictor {
             grid,
             inv_dt: T::one() / dt,
+            theta: T::lit(0.5),
             rho: &materials.rho,
             mu: ViscosityView::new(grid, &materials.mu, None),
             extra,
         }
+    }
+
+    /// The operator with the viscous weighting of `scheme` instead of Crank–Nicolson.
+    pub fn viscous(mut self, scheme: super::ViscousScheme) -> Self {
+        self.theta = T::lit(scheme.implicit_weight());
+        self
     }
 
     /// `(P x)_c` at face `idx` without the extra terms, with the ghosts of `x` as they are.
@@ -504,7 +516,7 @@ impl<'a, T: Real> Predictor<'a, T> {
         if wall {
             diag * x.c[c].data[idx]
         } else {
-            diag * x.c[c].data[idx] - T::lit(0.5) * viscous_at(self.grid, &self.mu, x, c, idx)
+            diag * x.c[c].data[idx] - self.theta * viscous_at(self.grid, &self.mu, x, c, idx)
         }
     }
 
@@ -522,7 +534,7 @@ impl<'a, T: Real> Predictor<'a, T> {
     #[inline(always)]
     pub(crate) fn diag_at(&self, c: usize, idx: usize, wall: bool) -> T {
         let d = face_density(self.grid, self.rho, c, idx) * self.inv_dt;
-        if wall { d } else { d + viscous_diag(self.grid, &self.mu, c, idx) }
+        if wall { d } else { d + T::lit(2.0) * self.theta * viscous_diag(self.grid, &self.mu, c, idx) }
     }
 
     /// `y = P x` on interior faces, with the ghosts of `x` as they are.
@@ -530,10 +542,10 @@ impl<'a, T: Real> Predictor<'a, T> {
         let g = self.grid;
         match (self.rho, self.mu.mu, self.mu.edge) {
             (Coefficient::Uniform(rho), Coefficient::Uniform(mu), _) => {
-                uniform_helmholtz(g, x, *rho * self.inv_dt, -T::lit(0.5) * *mu, y);
+                uniform_helmholtz(g, x, *rho * self.inv_dt, -self.theta * *mu, y);
             }
             (rho, Coefficient::Field(mu), edge) => {
-                variable_helmholtz(g, x, rho, self.inv_dt, mu, edge, y);
+                variable_helmholtz(g, x, rho, self.inv_dt, self.theta, mu, edge, y);
             }
             _ => {
                 for (c, yc) in y.c.iter_mut().enumerate() {
@@ -613,7 +625,9 @@ impl<T: Real> HelmholtzPrecond<T> {
         })
     }
 
-    /// Sets the reference coefficients: `sigma = rho_ref / dt`, `c = mu_ref / 2`.
+    /// Sets the reference coefficients of `sigma - c lap`: `sigma = rho_ref / dt`,
+    /// `c = theta mu_ref` (`theta` the implicit weight of the viscous term, 1/2 for
+    /// Crank–Nicolson).
     pub fn set(&mut self, sigma: T, c: T) {
         self.sigma = sigma;
         self.c = c;
@@ -622,11 +636,12 @@ impl<T: Real> HelmholtzPrecond<T> {
 
     /// Sets two reference viscosities, `mu_lo < mu_hi`, and blends the two inverses with the
     /// face weights `(mu_f - mu_lo) / (mu_hi - mu_lo)` of the cell viscosity field `mu` (ghosts
-    /// filled); `sigma = rho_ref / dt`. See the type's docs.
-    pub fn set_two(&mut self, sigma: T, mu_lo: T, mu_hi: T, mu: &Field<T>) {
+    /// filled); `sigma = rho_ref / dt`, `theta` the implicit weight of the viscous term (1/2 for
+    /// Crank–Nicolson). See the type's docs.
+    pub fn set_two(&mut self, sigma: T, theta: T, mu_lo: T, mu_hi: T, mu: &Field<T>) {
         let (g, half) = (&self.grid, T::lit(0.5));
         let (c_lo, w) = self.two.get_or_insert_with(|| (T::zero(), VectorField::zeros(g)));
-        *c_lo = half * mu_lo;
+        *c_lo = theta * mu_lo;
         let span = T::one() / (mu_hi - mu_lo);
         for (c, wc) in w.c.iter_mut().enumerate() {
             let st = g.strides()[c];
@@ -636,7 +651,7 @@ impl<T: Real> HelmholtzPrecond<T> {
             });
         }
         self.sigma = sigma;
-        self.c = half * mu_hi;
+        self.c = theta * mu_hi;
         self.blended = true;
     }
 }
@@ -690,6 +705,9 @@ pub struct MomentumSystem<'a, T: Real> {
     pub rho_min: T,
     /// The smallest and the largest viscosity.
     pub mu_range: (T, T),
+    /// The implicit weight `theta` of the viscous term in the operator (`1/2`: Crank–Nicolson;
+    /// see [`ViscousScheme`](super::ViscousScheme)).
+    pub theta: T,
 }
 
 /// The strategy that solves the momentum predictor (2.35) `P v* = b`, once per step.
@@ -811,9 +829,9 @@ impl<T: Real> MomentumSolver<T> for KrylovMomentum<T> {
         match &system.materials.mu {
             // Two viscosities far apart: blend two inverses (HelmholtzPrecond::set_two).
             Coefficient::Field(f) if self.two_viscosities && mu_hi > T::lit(TWO_VISCOSITY_RATIO) * mu_lo => {
-                self.precond.set_two(sigma, mu_lo, mu_hi, f)
+                self.precond.set_two(sigma, system.theta, mu_lo, mu_hi, f)
             }
-            _ => self.precond.set(sigma, T::lit(0.5) * mu_hi),
+            _ => self.precond.set(sigma, system.theta * mu_hi),
         }
         bicgstab(system.grid, system.operator, &mut self.precond, b, x, &mut self.ws, self.params)
     }
@@ -867,7 +885,7 @@ mod tests {
             };
             pc.set(1.0 / dt, 2.5);
             let (x1, its1) = solve(&mut pc);
-            pc.set_two(1.0 / dt, 1.0, 5.0, mu);
+            pc.set_two(1.0 / dt, 0.5, 1.0, 5.0, mu);
             let (x2, its2) = solve(&mut pc);
             for d in 0..3 {
                 for (i, j, k) in g.cells() {
@@ -901,9 +919,11 @@ mod tests {
             let mut field = Coefficient::Field(Field::from_cell_fn(&g, |_| 0.37));
             field.fill_ghosts(&g);
             let rho = Coefficient::Uniform(1.5);
+            // A theta other than 1/2 goes through both paths the same way.
             let fast = Predictor {
                 grid: &g,
                 inv_dt: 10.0,
+                theta: 0.7,
                 rho: &rho,
                 mu: ViscosityView::new(&g, &uniform, None),
                 extra: None,
@@ -911,6 +931,7 @@ mod tests {
             let slow = Predictor {
                 grid: &g,
                 inv_dt: 10.0,
+                theta: 0.7,
                 rho: &rho,
                 mu: ViscosityView::new(&g, &field, None),
                 extra: None,
@@ -986,6 +1007,7 @@ mod tests {
                 let fast = Predictor {
                     grid: &g,
                     inv_dt: 10.0,
+                    theta: 0.5,
                     rho,
                     mu: ViscosityView::new(&g, &mu, given),
                     extra: None,

@@ -49,6 +49,9 @@ impl Default for PredictorSolver {
 /// Settings of a [`FlowStepper`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FlowConfig {
+    /// The time weighting of the viscous term. Default [`ViscousScheme::CrankNicolson`] (the
+    /// paper's).
+    pub viscous: ViscousScheme,
     /// Solver of the momentum predictor.
     pub predictor: PredictorSolver,
     /// Stopping rule of the variable-density pressure PCG of the default
@@ -65,9 +68,52 @@ pub struct FlowConfig {
     pub two_viscosity_preconditioner: bool,
 }
 
+/// How the viscous term of the momentum predictor (2.35) is split between the time levels:
+/// `theta V(v*) + (1 - theta) V(v*_prev)`.
+///
+/// The paper's Crank–Nicolson (`theta = 1/2`) is second order in time, but its amplification
+/// factor `(1 - (1 - theta) s) / (1 + theta s)` tends to `-1` as the viscous number `s` of a mode
+/// grows: at the capsule cases' viscous numbers (10-100 at the grid scale, `Re = 0.01`) the
+/// highest modes are not damped, and a membrane force that excites them makes the run fail
+/// (`docs/stability.md`). A `theta` above 1/2 damps them (the factor tends to
+/// `-(1 - theta) / theta`: `-2/3` at 0.6, 0 at 1) at the price of a first-order error
+/// `(theta - 1/2) dt` in the viscous term, which is negligible where the flow is nearly Stokes
+/// (the shear capsule's `D` moves by 0.06 % at `theta` = 0.6).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum ViscousScheme {
+    /// `theta = 1/2`, the paper's (2.35): second order. The default of [`FlowConfig`].
+    #[default]
+    CrankNicolson,
+    /// The theta-scheme with an implicit weight `theta` in `[1/2, 1]` (1: backward Euler,
+    /// L-stable). The default of [`Settings`](crate::simulation::Settings) is `Theta(0.6)`.
+    Theta(f64),
+}
+
+impl ViscousScheme {
+    /// The implicit weight `theta`.
+    pub fn implicit_weight(&self) -> f64 {
+        match self {
+            ViscousScheme::CrankNicolson => 0.5,
+            ViscousScheme::Theta(t) => *t,
+        }
+    }
+
+    /// `Ok` if the weight is in `[1/2, 1]`; else [`Error::InvalidParameter`] naming
+    /// `FlowConfig::viscous`.
+    pub fn validate(&self) -> Result<()> {
+        let t = self.implicit_weight();
+        if (0.5..=1.0).contains(&t) {
+            Ok(())
+        } else {
+            Err(Error::invalid("FlowConfig::viscous", t, "an implicit weight theta in [1/2, 1]"))
+        }
+    }
+}
+
 impl Default for FlowConfig {
     fn default() -> Self {
         FlowConfig {
+            viscous: ViscousScheme::default(),
             predictor: PredictorSolver::default(),
             poisson: KrylovParams::default(),
             two_viscosity_preconditioner: true,
@@ -125,6 +171,8 @@ pub struct StepInfo {
 /// ```
 pub struct FlowStepper<T: Real> {
     grid: Grid<T>,
+    /// The implicit weight `theta` of the viscous term ([`FlowConfig::viscous`]).
+    theta: T,
     materials: Materials<T>,
     v: VectorField<T>,
     p: Field<T>,
@@ -159,6 +207,7 @@ impl<T: Real> FlowStepper<T> {
     pub fn new(grid: &Grid<T>, materials: Materials<T>, config: FlowConfig) -> Result<Self> {
         materials.rho.validate(grid, "rho")?;
         materials.mu.validate(grid, "mu")?;
+        config.viscous.validate()?;
         let momentum: Box<dyn MomentumSolver<T>> = match config.predictor {
             PredictorSolver::Sor(s) => Box::new(SorMomentum::new(s)?),
             PredictorSolver::Krylov(k) => {
@@ -171,6 +220,7 @@ impl<T: Real> FlowStepper<T> {
         let z = || VectorField::zeros(grid);
         let mut s = FlowStepper {
             grid: grid.clone(),
+            theta: T::lit(config.viscous.implicit_weight()),
             materials,
             v: z(),
             p: Field::zeros(grid),
@@ -449,7 +499,8 @@ impl<T: Real> FlowStepper<T> {
 
         // 3. Right-hand side of (2.35); the explicit viscous half first (fast path when mu is
         // uniform), then the other terms added in place.
-        let half = T::lit(0.5);
+        // The explicit weight `1 - theta` of the viscous term (1/2 for Crank-Nicolson).
+        let half = T::one() - self.theta;
         let uniform_mu = match &self.materials.mu {
             Coefficient::Uniform(m) => Some(*m),
             Coefficient::Field(_) => None,
@@ -476,7 +527,8 @@ impl<T: Real> FlowStepper<T> {
                 b
             });
         }
-        let op = Predictor { grid: g, inv_dt, rho, mu, extra };
+        let theta = self.theta;
+        let op = Predictor { grid: g, inv_dt, theta, rho, mu, extra };
         if self.moving_walls {
             // Lift: the operator applied to a field that is zero inside with the wall velocity in
             // its ghosts moves to the right-hand side, so the solve is homogeneous.
@@ -503,6 +555,7 @@ impl<T: Real> FlowStepper<T> {
             inv_dt,
             rho_min: rho_lo,
             mu_range: (mu_lo, mu_hi),
+            theta,
         };
         let minfo = ws.momentum.solve(&system, &ws.rhs, &mut ws.vstar)?;
         ws.vstar.fill_ghosts(g);
