@@ -12,7 +12,7 @@
 //! - [`interface`]: geometry from `phi`, MTHINC advection, convolved-curvature advection, shapes;
 //! - [`membrane`]: surface constitutive laws, stress, Jacobian, bending, `G_s` transport;
 //! - [`fluid`]: Poisson/Helmholtz solvers, Krylov and SOR, the projection stepper;
-//! - [`diagnostics`] and [`io`]: measurements, plots, ParaView output.
+//! - [`diagnostics`] and [`io`]: measurements, ParaView output, checkpoints.
 //!
 //! # Quick start: a pressure-driven channel
 //! ```

@@ -11,7 +11,7 @@
 //! velocity the *smoothed* membrane moves with, not the fluid velocity on the sharp surface.
 //!
 //! Applied to the response to a prescribed surface force it measures the discrete mobility of
-//! the membrane (see `examples/surface_mobility.rs`): for a sphere of radius `a` in a fluid of
+//! the membrane (see `cases/examples/surface_mobility.rs`): for a sphere of radius `a` in a fluid of
 //! viscosity `mu` on both sides, a force `g Y_2 e_r` gives `u_r = (4/35) g a Y_2 / mu` on the
 //! surface (the single-layer Stokes potential; the same as Taylor's relaxation time of a drop of
 //! equal viscosity), and `g grad_s Y_2` gives `u_t = (1/7) g a grad_s Y_2 / mu` and

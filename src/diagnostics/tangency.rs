@@ -14,7 +14,7 @@
 //! ```
 //!
 //! `n` is normalised in each cell; a band cell with a zero normal is skipped. A growing
-//! `max |G_s n|` is an early warning: in the two red cells of `examples/rbc_channel.rs` it ran away
+//! `max |G_s n|` is an early warning: in the two red cells of `cases/examples/rbc_channel.rs` it ran away
 //! on the rim next to the walls before the paper's transport failed (docs/validation/red_cells.md).
 
 use super::reduce::{check_field, reduce_cells};

@@ -118,7 +118,7 @@ pub fn upwind5_face<T: Real>(u: T, a: T, b: T, c: T, d: T, e: T, f: T) -> T {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum StrainAdvection {
     /// Third-order upwind (the paper's), `(−1, 5, 2)/6`; reads two cells upwind. The default:
-    /// its dissipation keeps the hard cases of `tests/stability.rs` stable.
+    /// its dissipation keeps the hard cases of `cases/tests/stability.rs` stable.
     #[default]
     Upwind3,
     /// Fifth-order upwind, `(2, −13, 47, 27, −3)/60`; reads three cells upwind (the ghost depth).

@@ -8,7 +8,7 @@
 //! modulus `K` over the viscous resistance of the fluid on both sides), and a bending mode at
 //! `E_b / (mu h^3)`. With the stress explicit in time a step must stay below a fixed multiple
 //! of these times. Measured by bisection on a stiff capsule in a slow shear flow
-//! (`examples/stability.rs --mode sweep`, `docs/stability.md`), for `K = E_s` from `2.5e4` to
+//! (`cases/examples/stability.rs --mode sweep`, `docs/stability.md`), for `K = E_s` from `2.5e4` to
 //! `4e5`, `h` from `1/6` to `1/3`, `mu` from 25 to 400, `rho = 1`:
 //!
 //! - explicit in-plane stress ([`MembraneCoupling::Explicit`]): blows up above

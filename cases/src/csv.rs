@@ -9,8 +9,8 @@
 //! [`read_xy`] reads the other kind of file met in validation work: two columns without header,
 //! e.g. a curve digitised from a published figure (`0.0297, 0.0106` per line).
 
-use super::{create_parent_dirs, io_error};
-use crate::{Error, Result};
+use crate::files::{create_parent_dirs, io_error};
+use eulermembrane::{Error, Result};
 use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 /// Formats `x` in its shortest round-trip form (see the [module docs](self)).
 ///
 /// ```
-/// use eulermembrane::io::csv::format_f64;
+/// use eulermembrane_cases::csv::format_f64;
 /// assert_eq!(format_f64(0.25), "0.25");
 /// assert_eq!(format_f64(1.5e-7), "1.5e-7");
 /// assert_eq!(format_f64(f64::NAN), "NaN");
@@ -49,7 +49,7 @@ fn push_f64(out: &mut String, x: f64) {
 /// see write errors. Dropping the writer flushes too, but silently.
 ///
 /// ```
-/// use eulermembrane::io::csv::{CsvWriter, read_columns};
+/// use eulermembrane_cases::csv::{CsvWriter, read_columns};
 /// # fn main() -> eulermembrane::Result<()> {
 /// let path = std::env::temp_dir().join("eulermembrane_doc_csvwriter/series.csv");
 /// let mut csv = CsvWriter::create(&path, &["t", "taylor_d"])?;
@@ -79,7 +79,7 @@ impl CsvWriter {
     /// quote or a line break; [`Error::Io`] if the file cannot be created or written.
     ///
     /// ```
-    /// use eulermembrane::io::csv::CsvWriter;
+    /// use eulermembrane_cases::csv::CsvWriter;
     /// # fn main() -> eulermembrane::Result<()> {
     /// let path = std::env::temp_dir().join("eulermembrane_doc_csv_create/a.csv");
     /// let csv = CsvWriter::create(&path, &["x", "y"])?;
@@ -119,7 +119,7 @@ impl CsvWriter {
     /// write failure.
     ///
     /// ```
-    /// use eulermembrane::io::csv::CsvWriter;
+    /// use eulermembrane_cases::csv::CsvWriter;
     /// # fn main() -> eulermembrane::Result<()> {
     /// let path = std::env::temp_dir().join("eulermembrane_doc_csv_row/a.csv");
     /// let mut csv = CsvWriter::create(&path, &["x", "y"])?;
@@ -150,7 +150,7 @@ impl CsvWriter {
     /// Number of columns (the length of the header).
     ///
     /// ```
-    /// use eulermembrane::io::csv::CsvWriter;
+    /// use eulermembrane_cases::csv::CsvWriter;
     /// # fn main() -> eulermembrane::Result<()> {
     /// let path = std::env::temp_dir().join("eulermembrane_doc_csv_columns/a.csv");
     /// assert_eq!(CsvWriter::create(&path, &["t", "a", "b"])?.columns(), 3);
@@ -164,7 +164,7 @@ impl CsvWriter {
     /// The path written to.
     ///
     /// ```
-    /// use eulermembrane::io::csv::CsvWriter;
+    /// use eulermembrane_cases::csv::CsvWriter;
     /// # fn main() -> eulermembrane::Result<()> {
     /// let path = std::env::temp_dir().join("eulermembrane_doc_csv_path/a.csv");
     /// assert_eq!(CsvWriter::create(&path, &["t"])?.path(), path.as_path());
@@ -179,7 +179,7 @@ impl CsvWriter {
     /// while it grows.
     ///
     /// ```
-    /// use eulermembrane::io::csv::CsvWriter;
+    /// use eulermembrane_cases::csv::CsvWriter;
     /// # fn main() -> eulermembrane::Result<()> {
     /// let path = std::env::temp_dir().join("eulermembrane_doc_csv_flush/a.csv");
     /// let mut csv = CsvWriter::create(&path, &["t"])?;
@@ -196,7 +196,7 @@ impl CsvWriter {
     /// Flushes and closes the file.
     ///
     /// ```
-    /// use eulermembrane::io::csv::CsvWriter;
+    /// use eulermembrane_cases::csv::CsvWriter;
     /// # fn main() -> eulermembrane::Result<()> {
     /// let path = std::env::temp_dir().join("eulermembrane_doc_csv_finish/a.csv");
     /// let mut csv = CsvWriter::create(&path, &["t"])?;
@@ -220,7 +220,7 @@ impl CsvWriter {
 /// not a plain CSV field; [`Error::Io`] on a file failure.
 ///
 /// ```
-/// use eulermembrane::io::csv::{read_columns, write_columns};
+/// use eulermembrane_cases::csv::{read_columns, write_columns};
 /// # fn main() -> eulermembrane::Result<()> {
 /// let path = std::env::temp_dir().join("eulermembrane_doc_write_columns/profile.csv");
 /// let y = [0.0, 0.5, 1.0];
@@ -256,7 +256,7 @@ pub fn write_columns(path: impl AsRef<Path>, columns: &[(&str, &[f64])]) -> Resu
 /// A table read by [`read_columns`]: column names and the values of each column.
 ///
 /// ```
-/// use eulermembrane::io::csv::Table;
+/// use eulermembrane_cases::csv::Table;
 /// let table = Table { names: vec!["t".into()], columns: vec![vec![0.0, 0.1]] };
 /// assert_eq!(table.column("t"), Some(&[0.0, 0.1][..]));
 /// assert_eq!(table.rows(), 2);
@@ -273,7 +273,7 @@ impl Table {
     /// The values of the column called `name`, if there is one.
     ///
     /// ```
-    /// use eulermembrane::io::csv::Table;
+    /// use eulermembrane_cases::csv::Table;
     /// let names = vec!["x".to_string(), "y".to_string()];
     /// let table = Table { names, columns: vec![vec![1.0], vec![2.0]] };
     /// assert_eq!(table.column("y"), Some(&[2.0][..]));
@@ -287,7 +287,7 @@ impl Table {
     /// Number of rows (0 for a table without columns).
     ///
     /// ```
-    /// use eulermembrane::io::csv::Table;
+    /// use eulermembrane_cases::csv::Table;
     /// assert_eq!(Table::default().rows(), 0);
     /// ```
     pub fn rows(&self) -> usize {
@@ -302,7 +302,7 @@ impl Table {
 /// a number, or a row whose length differs from the header's).
 ///
 /// ```
-/// use eulermembrane::io::csv::read_columns;
+/// use eulermembrane_cases::csv::read_columns;
 /// # fn main() -> eulermembrane::Result<()> {
 /// let path = std::env::temp_dir().join("eulermembrane_doc_read_columns.csv");
 /// std::fs::write(&path, "# a comment\nt,e\n0,1.5\n1,2.5\n").unwrap();
@@ -345,7 +345,7 @@ pub fn read_columns(path: impl AsRef<Path>) -> Result<Table> {
 /// and the line number for a line that is not two numbers.
 ///
 /// ```
-/// use eulermembrane::io::csv::read_xy;
+/// use eulermembrane_cases::csv::read_xy;
 /// # fn main() -> eulermembrane::Result<()> {
 /// let path = std::env::temp_dir().join("eulermembrane_doc_read_xy.csv");
 /// std::fs::write(&path, "# t, D\n0.03, 0.0106\n\n0.075, 0.032\n").unwrap();

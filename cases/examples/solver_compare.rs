@@ -5,7 +5,7 @@
 //! Flags: `--n N` (64), `--steps S` (3), `--krylov-tol TOL` (BiCGStab relative residual, 1e-8).
 //!
 //! `cargo run --release --example solver_compare [-- --n 64 --steps 3]`
-mod common;
+use eulermembrane_cases as common;
 
 use eulermembrane::fluid::{FlowConfig, FlowStepper, KrylovParams, Materials, PredictorSolver, SorParams};
 use eulermembrane::grid::{Boundary, Grid};

@@ -14,17 +14,17 @@
 //! `--normals youngs|central_phi|atanh2|atanh4` (default youngs, the paper's),
 //! `--quadrature exact|gauss2`, `--beta B`, `--cfl C`, `--tiny E` (uniform-cell threshold), `--out DIR` (default
 //! `out/single_vortex`; SVG contour plots of Fig. 3 and curvature profiles of Fig. 4),
-//! `--no-plots`. The run itself is `examples/common/vortex.rs`.
+//! `--no-plots`. The run itself is `cases/src/vortex.rs`.
 //!
 //! Run: `cargo run --release --example single_vortex -- --n 128`.
 
-mod common;
+use eulermembrane_cases as common;
 
 use common::Args;
 use common::vortex::{self, Snap, VortexCase};
 use eulermembrane::grid::{Field, Grid};
 use eulermembrane::interface::{CellQuadrature, NormalScheme};
-use eulermembrane::io::plot::{Figure, LineStyle, Panels, contour_segments};
+use eulermembrane_cases::plot::{Figure, LineStyle, Panels, contour_segments};
 use std::fmt::Write as _;
 
 /// The paper's Table 1: (N, L1, L2, Linf) of phi and of kappa_R delta_bar.
@@ -186,7 +186,7 @@ fn print_table(runs: &[Run], o: &Opts) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Plots (Figs. 3 and 4) with `eulermembrane::io::plot`.
+// Plots (Figs. 3 and 4) with `eulermembrane_cases::plot`.
 
 /// Contour segments of a cell-centred 2D field at `level` (marching squares on cell centres).
 fn contour(g: &Grid<f64>, f: &Field<f64>, level: f64) -> Vec<[(f64, f64); 2]> {

@@ -16,7 +16,7 @@ use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
 use eulermembrane::interface::{AdvectionParams, Advector, Carried, NormalScheme};
 use std::io::Write as _;
 
-mod common;
+use eulermembrane_cases as common;
 
 fn main() {
     common::exit_on_error(run());

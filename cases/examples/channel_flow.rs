@@ -5,9 +5,8 @@
 //! Flags: `--out DIR` (`out/channel_flow`).
 //!
 //! `cargo run --release --example channel_flow`
-#[path = "common/cases.rs"]
-mod cases;
-mod common;
+use eulermembrane_cases as common;
+use eulermembrane_cases::flows;
 
 fn main() {
     let args = common::Args::parse(include_str!("channel_flow.rs"));
@@ -22,20 +21,20 @@ fn main() {
     let mut ce = Vec::new();
     for &n in &ns {
         let dt = 2.0 / (mu * (n * n) as f64);
-        let p = cases::poiseuille(n, mu, f, dt, t_end);
-        let c = cases::couette(n, mu, u_top, dt, t_end);
-        pe.push(cases::rel_max_err(&p, |y| cases::poiseuille_exact(y, f64::INFINITY, mu, f)));
-        ce.push(cases::rel_max_err(&c, |y| cases::couette_exact(y, f64::INFINITY, mu, u_top)));
+        let p = flows::poiseuille(n, mu, f, dt, t_end);
+        let c = flows::couette(n, mu, u_top, dt, t_end);
+        pe.push(flows::rel_max_err(&p, |y| flows::poiseuille_exact(y, f64::INFINITY, mu, f)));
+        ce.push(flows::rel_max_err(&c, |y| flows::couette_exact(y, f64::INFINITY, mu, u_top)));
         println!("{n:>4} {:>14.4e} {:>14.4e}", pe.last().unwrap(), ce.last().unwrap());
     }
     let order = common::order(pe[1], pe[2], 32.0, 64.0);
     // Start-up transient at t = 0.05 (about a third of the way to steady), small dt so that the
     // time error is below the space error.
     let (n, t) = (32, 0.05);
-    let tp = cases::poiseuille(n, mu, f, 1e-4, t);
-    let tc = cases::couette(n, mu, u_top, 1e-4, t);
-    let ep = cases::rel_max_err(&tp, |y| cases::poiseuille_exact(y, t, mu, f));
-    let ec = cases::rel_max_err(&tc, |y| cases::couette_exact(y, t, mu, u_top));
+    let tp = flows::poiseuille(n, mu, f, 1e-4, t);
+    let tc = flows::couette(n, mu, u_top, 1e-4, t);
+    let ep = flows::rel_max_err(&tp, |y| flows::poiseuille_exact(y, t, mu, f));
+    let ec = flows::rel_max_err(&tc, |y| flows::couette_exact(y, t, mu, u_top));
     println!("transient at t = {t}, N = {n}: poiseuille {ep:.3e}, couette {ec:.3e}");
     let mut csv = String::from("y,u_poiseuille,u_poiseuille_exact,u_couette,u_couette_exact\n");
     for (a, b) in tp.iter().zip(&tc) {
@@ -43,9 +42,9 @@ fn main() {
             "{},{},{},{},{}\n",
             a.0,
             a.1,
-            cases::poiseuille_exact(a.0, t, mu, f),
+            flows::poiseuille_exact(a.0, t, mu, f),
             b.1,
-            cases::couette_exact(b.0, t, mu, u_top)
+            flows::couette_exact(b.0, t, mu, u_top)
         );
     }
     std::fs::write(out.join("transient_t0.05.csv"), csv).expect("write csv");

@@ -1,6 +1,5 @@
-//! Validation flows shared by the examples and the integration tests (included there with
-//! `#[path]`): each runs the public API and returns measured errors.
-#![allow(dead_code)]
+//! Validation flows shared by the examples (`taylor_green`, `channel_flow`,
+//! `two_layer_couette`) and `tests/flow.rs`: each runs the public API and returns measured errors.
 
 use eulermembrane::fluid::{BodyForce, FlowConfig, FlowStepper, Materials, PredictorSolver};
 use eulermembrane::grid::{Boundary, Field, Grid};

@@ -5,9 +5,8 @@
 //! Flags: `--out DIR` (`out/two_layer_couette`).
 //!
 //! `cargo run --release --example two_layer_couette`
-#[path = "common/cases.rs"]
-mod cases;
-mod common;
+use eulermembrane_cases as common;
+use eulermembrane_cases::flows;
 
 fn main() {
     let args = common::Args::parse(include_str!("two_layer_couette.rs"));
@@ -17,14 +16,14 @@ fn main() {
     let mut errs = Vec::new();
     println!("{:>4} {:>12} {:>7}", "N", "rel_err", "order");
     for (m, &n) in ns.iter().enumerate() {
-        let prof = cases::two_layer_couette(n, mu1, mu2, y_i);
-        let e = cases::rel_max_err(&prof, |y| cases::two_layer_exact(y, mu1, mu2, y_i));
+        let prof = flows::two_layer_couette(n, mu1, mu2, y_i);
+        let e = flows::rel_max_err(&prof, |y| flows::two_layer_exact(y, mu1, mu2, y_i));
         let ord = if m > 0 { common::order(errs[m - 1], e, ns[m - 1] as f64, n as f64) } else { f64::NAN };
         println!("{n:>4} {e:>12.4e} {ord:>7.3}");
         errs.push(e);
         let mut csv = String::from("y,u,u_exact\n");
         for (y, u) in &prof {
-            csv += &format!("{y},{u},{}\n", cases::two_layer_exact(*y, mu1, mu2, y_i));
+            csv += &format!("{y},{u},{}\n", flows::two_layer_exact(*y, mu1, mu2, y_i));
         }
         std::fs::write(out.join(format!("profile_n{n}.csv")), csv).expect("write csv");
     }

@@ -53,17 +53,17 @@
 //!
 //! Run: `cargo run --release --example rbc_channel -- --n 32`.
 
-mod common;
+use eulermembrane_cases as common;
 
 use common::{Args, BoxResult, num, result};
 use eulermembrane::diagnostics::{AreaTracker, ProfileAxes, Span, gs_tangency, streamwise_profile};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
-use eulermembrane::io::csv::{CsvWriter, read_columns, write_columns};
-use eulermembrane::io::plot::{Figure, LineStyle, contour_segments};
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{BendingForm, Skalak};
 use eulermembrane::simulation::{GsTransport, Phase, Scene, Settings, Simulation};
+use eulermembrane_cases::csv::{CsvWriter, read_columns, write_columns};
+use eulermembrane_cases::plot::{Figure, LineStyle, contour_segments};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

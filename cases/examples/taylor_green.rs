@@ -5,9 +5,8 @@
 //! `--out DIR` (`out/taylor_green`).
 //!
 //! `cargo run --release --example taylor_green [-- --t-end 1.0 --sor]`
-#[path = "common/cases.rs"]
-mod cases;
-mod common;
+use eulermembrane_cases as common;
+use eulermembrane_cases::flows;
 
 use eulermembrane::fluid::{PredictorSolver, SorParams};
 
@@ -26,7 +25,7 @@ fn main() {
     for (m, &n) in ns.iter().enumerate() {
         let t0 = std::time::Instant::now();
         let vti = out.join(format!("taylor_green_n{n}.vti"));
-        let (l2, linf) = cases::taylor_green_snapshot(n, t_end, solver, Some(&vti));
+        let (l2, linf) = flows::taylor_green_snapshot(n, t_end, solver, Some(&vti));
         let ord = if m > 0 { common::order(errs[m - 1], l2, ns[m - 1] as f64, n as f64) } else { f64::NAN };
         errs.push(l2);
         println!("{n:>5} {l2:>12.4e} {linf:>12.4e} {ord:>7.3}   ({:.2} s)", t0.elapsed().as_secs_f64());

@@ -1,6 +1,6 @@
 //! Sec. 3.3 of the paper: an initially spherical neo-Hookean capsule in simple shear flow,
 //! compared with boundary-element results (Ramanujan & Pozrikidis 1998, Pozrikidis 1995/2001,
-//! Le 2010) from `shared/reference`. The set-up is in `examples/common/shear.rs`.
+//! Le 2010) from `shared/reference`. The set-up is in `cases/src/shear.rs`.
 //!
 //! Prints progress; writes into `--out` the history `history.csv` (t, D, angle, area, volume
 //! drift, predictor iterations; written as the run goes, so a failed run leaves it), the plot `deformation.svg` of `D(t)` with the reference curves
@@ -24,14 +24,14 @@
 //! Run: `cargo run --release --example shear_capsule` (about a minute on 2 cores; `--n 64` for
 //! 8 cells per radius, about 30 minutes).
 
-mod common;
+use eulermembrane_cases as common;
 
 use common::shear::{self, ShearCase, ShearOutcome};
-use common::{Args, BoxResult, num, read_points, reference_dir, result};
-use eulermembrane::io::csv::CsvWriter;
-use eulermembrane::io::plot::{Figure, LineStyle};
+use common::{Args, BoxResult, num, reference_dir, result};
 use eulermembrane::membrane::BendingForm;
 use eulermembrane::simulation::{GsTransport, ReferenceArea, Settings};
+use eulermembrane_cases::csv::{CsvWriter, read_xy};
+use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;
 
 const SWEEP: [f64; 5] = [0.0125, 0.025, 0.05, 0.1, 0.2];
@@ -188,7 +188,7 @@ fn add_references(
         if !path.is_file() {
             continue;
         }
-        match read_points(&path) {
+        match read_xy(&path) {
             Ok(p) => {
                 let (x, y): (Vec<f64>, Vec<f64>) = p.into_iter().unzip();
                 let style = if k == 0 || dashed_only { LineStyle::Dashed } else { LineStyle::Dotted };

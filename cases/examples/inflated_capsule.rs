@@ -16,15 +16,15 @@
 //!
 //! Run: `cargo run --release --example inflated_capsule`.
 
-mod common;
+use eulermembrane_cases as common;
 
 use common::{Args, BoxResult, num, result};
 use eulermembrane::grid::Grid;
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::io::csv::write_columns;
-use eulermembrane::io::plot::Figure;
 use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw, equibiaxial_tension};
 use eulermembrane::simulation::{Phase, Scene};
+use eulermembrane_cases::csv::write_columns;
+use eulermembrane_cases::plot::Figure;
 use std::time::Instant;
 
 fn main() {

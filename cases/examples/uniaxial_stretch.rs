@@ -34,7 +34,7 @@
 //! at small strain where the digitisation scatter (≈ ±0.02 G_s) is a large fraction of a
 //! small tension (see tests/membrane_laws.rs, `bb2002_pointwise_relative_errors`).
 
-mod common;
+use eulermembrane_cases as common;
 
 use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw, uniaxial_tension};
 use std::fmt::Write as _;
@@ -116,7 +116,7 @@ fn run() -> BoxResult<()> {
         ("skalak", "barthes_biesel_2002_skalak.csv", &skalak),
     ] {
         let mut points = Vec::new();
-        for (e1, y) in common::read_points(&refdir.join(file))? {
+        for (e1, y) in common::csv::read_xy(refdir.join(file))? {
             let (t, _) = uniaxial_tension(law, (1.0 + 2.0 * e1).sqrt())?;
             points.push((e1, y, t));
         }

@@ -1,10 +1,33 @@
-//! Shared helpers of the example drivers: flags, output folder, the RESULT line.
-#![allow(dead_code)]
+//! # eulermembrane-cases
+//!
+//! The validation tooling of `eulermembrane`, kept out of the library: the examples (in this
+//! crate's `examples/`) and the integration tests that run the paper's cases use it, a user of
+//! the library does not need it.
+//!
+//! - [`plot`]: a small, dependency-free SVG plotting builder ([`plot::Figure`]) for the line
+//!   plots, marker plots and contour plots that the examples write next to their CSV output, and
+//!   marching squares ([`plot::contour_segments`]) to draw an interface from a sampled field;
+//! - [`csv`]: time series and profiles written with full precision ([`csv::CsvWriter`],
+//!   [`csv::write_columns`]), read back ([`csv::read_columns`]), and published reference curves
+//!   read from two-column files ([`csv::read_xy`]);
+//! - the cases shared by the examples and the tests: [`flows`] (Taylor-Green, channel and
+//!   two-layer flows against their exact solutions), [`vortex`] (the single vortex of Sec. 3.1),
+//!   [`shear`] (the capsule in shear of Sec. 3.3) and [`stability`] (the hard cases of the
+//!   stability suite);
+//! - at the crate root, what every example's `main` uses: its flags ([`Args`], read from the
+//!   example's own header), the `RESULT` line ([`result`], [`num`]), progress lines, CPU time and
+//!   the `shared/reference` folder.
+#![warn(missing_docs)]
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+pub mod csv;
+mod files;
+pub mod flows;
+pub mod plot;
 pub mod shear;
+pub mod stability;
 pub mod vortex;
 
 /// What an example's body returns.
@@ -161,11 +184,14 @@ pub fn num(x: f64) -> String {
 
 /// The folder `sub` of `shared/reference` beside the checkout (CI and the main checkout) or two
 /// levels up (a git worktree), unless `given` (the `reference` folder itself).
+///
+/// Errors: a message naming the folder when it is found nowhere.
 pub fn reference_dir(given: Option<PathBuf>, sub: &str) -> Result<PathBuf, Box<dyn std::error::Error>> {
     if let Some(d) = given {
         return Ok(d.join(sub));
     }
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    // This crate sits in `cases/` of the checkout.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     for c in [root.join("../shared"), root.join("shared"), root.join("../../shared")] {
         let d = c.join("reference").join(sub);
         if d.is_dir() {
@@ -173,20 +199,6 @@ pub fn reference_dir(given: Option<PathBuf>, sub: &str) -> Result<PathBuf, Box<d
         }
     }
     Err(format!("shared/reference/{sub} not found beside the checkout; pass --reference DIR").into())
-}
-
-/// The `(x, y)` points of a headerless two-column CSV file of `shared/reference`.
-pub fn read_points(path: &Path) -> Result<Vec<(f64, f64)>, Box<dyn std::error::Error>> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?;
-    let mut pts = Vec::new();
-    for (k, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-        let mut it = line.split(',').map(|x| x.trim().parse::<f64>());
-        match (it.next(), it.next()) {
-            (Some(Ok(x)), Some(Ok(y))) => pts.push((x, y)),
-            _ => return Err(format!("{}:{}: expected two numbers", path.display(), k + 1).into()),
-        }
-    }
-    Ok(pts)
 }
 
 /// On-CPU time of all threads of the process in seconds (`/proc/self/task/*/schedstat`, Linux;

@@ -12,7 +12,7 @@
 //! nonsensical explicit range give a figure with sensible axes, never a panic.
 //!
 //! ```
-//! use eulermembrane::io::plot::{Figure, LineStyle, Scale};
+//! use eulermembrane_cases::plot::{Figure, LineStyle, Scale};
 //! # fn main() -> eulermembrane::Result<()> {
 //! let n: Vec<f64> = vec![16.0, 32.0, 64.0, 128.0];
 //! let err: Vec<f64> = n.iter().map(|n| 3.0 / (n * n)).collect();
@@ -29,8 +29,8 @@
 //! # }
 //! ```
 
-use super::write_file;
-use crate::Result;
+use crate::files::write_file;
+use eulermembrane::Result;
 use std::fmt::{self, Write as _};
 use std::path::Path;
 
@@ -41,7 +41,7 @@ use std::path::Path;
 /// An sRGB colour.
 ///
 /// ```
-/// use eulermembrane::io::plot::Color;
+/// use eulermembrane_cases::plot::Color;
 /// let c = Color::rgb(0, 114, 178);
 /// assert_eq!(c.to_string(), "#0072b2");
 /// ```
@@ -59,7 +59,7 @@ impl Color {
     /// The colour with the given red, green and blue components.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Color;
+    /// use eulermembrane_cases::plot::Color;
     /// assert_eq!(Color::rgb(255, 0, 0), Color { r: 255, g: 0, b: 0 });
     /// ```
     pub const fn rgb(r: u8, g: u8, b: u8) -> Self {
@@ -69,7 +69,7 @@ impl Color {
     /// Black.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Color;
+    /// use eulermembrane_cases::plot::Color;
     /// assert_eq!(Color::BLACK.to_string(), "#000000");
     /// ```
     pub const BLACK: Color = Color::rgb(0, 0, 0);
@@ -77,7 +77,7 @@ impl Color {
     /// A mid grey, for reference curves that should stay in the background.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Color;
+    /// use eulermembrane_cases::plot::Color;
     /// assert_eq!(Color::GREY.to_string(), "#888888");
     /// ```
     pub const GREY: Color = Color::rgb(136, 136, 136);
@@ -94,7 +94,7 @@ impl fmt::Display for Color {
 /// common colour-vision deficiencies, with its yellow moved last (it is faint on white).
 ///
 /// ```
-/// use eulermembrane::io::plot::PALETTE;
+/// use eulermembrane_cases::plot::PALETTE;
 /// assert_eq!(PALETTE[0].to_string(), "#0072b2"); // blue
 /// assert_eq!(PALETTE[1].to_string(), "#d55e00"); // vermillion
 /// ```
@@ -112,7 +112,7 @@ pub const PALETTE: [Color; 8] = [
 /// Axis scale.
 ///
 /// ```
-/// use eulermembrane::io::plot::{Figure, Scale};
+/// use eulermembrane_cases::plot::{Figure, Scale};
 /// let fig = Figure::new("error").y_scale(Scale::Log10);
 /// # let _ = fig;
 /// ```
@@ -128,7 +128,7 @@ pub enum Scale {
 /// How a line is stroked.
 ///
 /// ```
-/// use eulermembrane::io::plot::{Figure, LineStyle};
+/// use eulermembrane_cases::plot::{Figure, LineStyle};
 /// let mut fig = Figure::new("");
 /// fig.line(&[0.0, 1.0], &[0.0, 1.0], "exact").style(LineStyle::Dotted);
 /// ```
@@ -151,7 +151,7 @@ pub enum LineStyle {
 /// `Diamond`, `TriangleDown`, unless set with [`Series::marker`].
 ///
 /// ```
-/// use eulermembrane::io::plot::{Figure, Marker};
+/// use eulermembrane_cases::plot::{Figure, Marker};
 /// let mut fig = Figure::new("");
 /// fig.markers(&[1.0, 2.0], &[1.0, 4.0], "data").marker(Marker::Triangle);
 /// ```
@@ -175,7 +175,7 @@ const AUTO_MARKERS: [Marker; 5] =
 /// Where the legend goes.
 ///
 /// ```
-/// use eulermembrane::io::plot::{Figure, Legend};
+/// use eulermembrane_cases::plot::{Figure, Legend};
 /// let fig = Figure::new("").legend(Legend::BottomRight);
 /// # let _ = fig;
 /// ```
@@ -207,7 +207,7 @@ const DEFAULT_MARKER_SIZE: f64 = 3.5;
 /// can be adjusted in a chain.
 ///
 /// ```
-/// use eulermembrane::io::plot::{Color, Figure, LineStyle, Marker};
+/// use eulermembrane_cases::plot::{Color, Figure, LineStyle, Marker};
 /// let mut fig = Figure::new("");
 /// fig.line_markers(&[0.0, 1.0, 2.0], &[1.0, 0.5, 0.2], "run A")
 ///     .color(Color::BLACK)
@@ -252,7 +252,7 @@ impl Series {
     /// Sets the colour, instead of the next one from [`PALETTE`].
     ///
     /// ```
-    /// use eulermembrane::io::plot::{Color, Figure};
+    /// use eulermembrane_cases::plot::{Color, Figure};
     /// let mut fig = Figure::new("");
     /// fig.line(&[0.0, 1.0], &[0.0, 1.0], "").color(Color::rgb(200, 0, 0));
     /// assert!(fig.to_svg().contains("#c80000"));
@@ -265,7 +265,7 @@ impl Series {
     /// Sets the line style (of the line or segments; a markers-only series stays without line).
     ///
     /// ```
-    /// use eulermembrane::io::plot::{Figure, LineStyle};
+    /// use eulermembrane_cases::plot::{Figure, LineStyle};
     /// let mut fig = Figure::new("");
     /// fig.line(&[0.0, 1.0], &[0.0, 1.0], "").style(LineStyle::Dashed);
     /// assert!(fig.to_svg().contains("stroke-dasharray"));
@@ -279,7 +279,7 @@ impl Series {
     /// ignored.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let mut fig = Figure::new("");
     /// fig.line(&[0.0, 1.0], &[0.0, 1.0], "").width(3.0);
     /// assert!(fig.to_svg().contains("stroke-width=\"3\""));
@@ -294,7 +294,7 @@ impl Series {
     /// Sets the marker shape, and shows markers on a series that had none.
     ///
     /// ```
-    /// use eulermembrane::io::plot::{Figure, Marker};
+    /// use eulermembrane_cases::plot::{Figure, Marker};
     /// let mut fig = Figure::new("");
     /// fig.line(&[0.0, 1.0], &[0.0, 1.0], "").marker(Marker::Diamond);
     /// ```
@@ -308,7 +308,7 @@ impl Series {
     /// shapes have about the same area. A non-finite or non-positive size is ignored.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let mut fig = Figure::new("");
     /// fig.markers(&[0.0, 1.0], &[0.0, 1.0], "").marker_size(5.0);
     /// ```
@@ -323,7 +323,7 @@ impl Series {
     /// through: the usual way to draw reference data over a computed curve.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let mut fig = Figure::new("");
     /// fig.markers(&[0.0, 1.0], &[0.0, 1.0], "Pozrikidis (1995)").filled(false);
     /// ```
@@ -356,7 +356,7 @@ struct AxisSpec {
 /// axes ranging over the data with a 4 % margin, grid lines on, legend in the best corner.
 ///
 /// ```
-/// use eulermembrane::io::plot::{Figure, Legend};
+/// use eulermembrane_cases::plot::{Figure, Legend};
 /// let t: Vec<f64> = (0..50).map(|k| 0.1 * k as f64).collect();
 /// let d: Vec<f64> = t.iter().map(|t| 0.3 * (1.0 - (-t).exp())).collect();
 /// let mut fig = Figure::new("Taylor deformation")
@@ -390,7 +390,7 @@ impl Figure {
     /// An empty 640 x 480 figure with the given title (empty for none).
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let svg = Figure::new("nothing yet").to_svg();
     /// assert!(svg.contains("width=\"640\""));
     /// ```
@@ -412,7 +412,7 @@ impl Figure {
     /// default).
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let svg = Figure::new("").size(800.0, 400.0).to_svg();
     /// assert!(svg.contains("viewBox=\"0 0 800 400\""));
     /// ```
@@ -428,7 +428,7 @@ impl Figure {
     /// Sets the x-axis label.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// assert!(Figure::new("").x_label("time").to_svg().contains(">time<"));
     /// ```
     pub fn x_label(mut self, label: impl Into<String>) -> Self {
@@ -439,7 +439,7 @@ impl Figure {
     /// Sets the y-axis label.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// assert!(Figure::new("").y_label("energy").to_svg().contains(">energy<"));
     /// ```
     pub fn y_label(mut self, label: impl Into<String>) -> Self {
@@ -450,7 +450,7 @@ impl Figure {
     /// Sets the x-axis scale.
     ///
     /// ```
-    /// use eulermembrane::io::plot::{Figure, Scale};
+    /// use eulermembrane_cases::plot::{Figure, Scale};
     /// let fig = Figure::new("").x_scale(Scale::Log10);
     /// # let _ = fig;
     /// ```
@@ -462,7 +462,7 @@ impl Figure {
     /// Sets the y-axis scale.
     ///
     /// ```
-    /// use eulermembrane::io::plot::{Figure, Scale};
+    /// use eulermembrane_cases::plot::{Figure, Scale};
     /// let fig = Figure::new("").y_scale(Scale::Log10);
     /// # let _ = fig;
     /// ```
@@ -476,7 +476,7 @@ impl Figure {
     /// range used instead; equal bounds are widened.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let fig = Figure::new("").x_range(0.0, 10.0);
     /// # let _ = fig;
     /// ```
@@ -488,7 +488,7 @@ impl Figure {
     /// Fixes the y-axis range; as [`x_range`](Figure::x_range).
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let fig = Figure::new("").y_range(-1.0, 1.0);
     /// # let _ = fig;
     /// ```
@@ -501,7 +501,7 @@ impl Figure {
     /// area), so that circles look round: for shapes and contour plots.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let fig = Figure::new("capsule outline").equal_aspect(true);
     /// # let _ = fig;
     /// ```
@@ -513,7 +513,7 @@ impl Figure {
     /// Shows or hides grid lines at the ticks (shown by default).
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let fig = Figure::new("").grid(false);
     /// # let _ = fig;
     /// ```
@@ -526,7 +526,7 @@ impl Figure {
     /// left out of the legend; without any labelled series there is no legend.
     ///
     /// ```
-    /// use eulermembrane::io::plot::{Figure, Legend};
+    /// use eulermembrane_cases::plot::{Figure, Legend};
     /// let fig = Figure::new("").legend(Legend::Hidden);
     /// # let _ = fig;
     /// ```
@@ -538,7 +538,7 @@ impl Figure {
     /// Adds a line through the points `(xs[k], ys[k])` (up to the shorter length).
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let mut fig = Figure::new("");
     /// fig.line(&[0.0, 1.0, 2.0], &[0.0, 1.0, 4.0], "x²");
     /// ```
@@ -548,10 +548,10 @@ impl Figure {
 
     /// Adds markers at the points `(xs[k], ys[k])`, without line.
     ///
-    /// A list of pairs, e.g. from [`read_xy`](crate::io::csv::read_xy), is split with
+    /// A list of pairs, e.g. from [`read_xy`](crate::csv::read_xy), is split with
     /// `unzip`:
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let reference = vec![(0.1, 0.02), (0.5, 0.08), (1.0, 0.11)];
     /// let (t, d): (Vec<f64>, Vec<f64>) = reference.into_iter().unzip();
     /// let mut fig = Figure::new("");
@@ -564,7 +564,7 @@ impl Figure {
     /// Adds a line with a marker at each point.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let mut fig = Figure::new("");
     /// fig.line_markers(&[16.0, 32.0, 64.0], &[1e-2, 2.6e-3, 6.4e-4], "error");
     /// ```
@@ -576,7 +576,7 @@ impl Figure {
     /// contour from [`contour_segments`], or any set of strokes.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let mut fig = Figure::new("").equal_aspect(true);
     /// fig.segments(vec![[(0.0, 0.0), (1.0, 0.0)], [(0.0, 1.0), (1.0, 1.0)]], "two strokes");
     /// ```
@@ -589,7 +589,7 @@ impl Figure {
     /// Renders the figure as a standalone SVG document.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// let mut fig = Figure::new("sine");
     /// let x: Vec<f64> = (0..100).map(|k| 0.1 * k as f64).collect();
     /// let y: Vec<f64> = x.iter().map(|x| x.sin()).collect();
@@ -612,11 +612,11 @@ impl Figure {
 
     /// Writes the SVG document to `path`, creating the parent directories.
     ///
-    /// Errors: [`Error::Io`](crate::Error::Io) naming the path if a directory or the file cannot
+    /// Errors: [`Error::Io`](eulermembrane::Error::Io) naming the path if a directory or the file cannot
     /// be written.
     ///
     /// ```
-    /// use eulermembrane::io::plot::Figure;
+    /// use eulermembrane_cases::plot::Figure;
     /// # fn main() -> eulermembrane::Result<()> {
     /// let path = std::env::temp_dir().join("eulermembrane_doc_save/sub/figure.svg");
     /// Figure::new("saved").save(&path)?;
@@ -649,7 +649,7 @@ fn zip(xs: &[f64], ys: &[f64]) -> Vec<(f64, f64)> {
 /// as its tallest.
 ///
 /// ```
-/// use eulermembrane::io::plot::{Figure, Panels};
+/// use eulermembrane_cases::plot::{Figure, Panels};
 /// let mut left = Figure::new("(a) shape").size(400.0, 400.0).equal_aspect(true);
 /// left.line(&[-1.0, 1.0, 1.0, -1.0, -1.0], &[-1.0, -1.0, 1.0, 1.0, -1.0], "");
 /// let mut right = Figure::new("(b) deformation").size(400.0, 400.0);
@@ -669,7 +669,7 @@ impl Panels {
     /// An empty set of panels with `columns` figures per row (0 is taken as 1).
     ///
     /// ```
-    /// use eulermembrane::io::plot::Panels;
+    /// use eulermembrane_cases::plot::Panels;
     /// let panels = Panels::new(3);
     /// assert!(panels.to_svg().starts_with("<svg"));
     /// ```
@@ -680,7 +680,7 @@ impl Panels {
     /// Appends a figure.
     ///
     /// ```
-    /// use eulermembrane::io::plot::{Figure, Panels};
+    /// use eulermembrane_cases::plot::{Figure, Panels};
     /// let mut panels = Panels::new(1);
     /// panels.push(Figure::new("top")).push(Figure::new("bottom"));
     /// assert!(panels.to_svg().contains("height=\"960\""));
@@ -693,7 +693,7 @@ impl Panels {
     /// Renders all figures into one SVG document.
     ///
     /// ```
-    /// use eulermembrane::io::plot::{Figure, Panels};
+    /// use eulermembrane_cases::plot::{Figure, Panels};
     /// let mut panels = Panels::new(2);
     /// panels.push(Figure::new("a")).push(Figure::new("b")).push(Figure::new("c"));
     /// let svg = panels.to_svg();
@@ -731,10 +731,10 @@ impl Panels {
 
     /// Writes the SVG document to `path`, creating the parent directories.
     ///
-    /// Errors: [`Error::Io`](crate::Error::Io) naming the path.
+    /// Errors: [`Error::Io`](eulermembrane::Error::Io) naming the path.
     ///
     /// ```
-    /// use eulermembrane::io::plot::{Figure, Panels};
+    /// use eulermembrane_cases::plot::{Figure, Panels};
     /// # fn main() -> eulermembrane::Result<()> {
     /// let mut panels = Panels::new(2);
     /// panels.push(Figure::new("a")).push(Figure::new("b"));
@@ -757,7 +757,7 @@ impl Panels {
 /// Returns no ticks for a non-finite bound, and the single value for `lo == hi`.
 ///
 /// ```
-/// use eulermembrane::io::plot::linear_ticks;
+/// use eulermembrane_cases::plot::linear_ticks;
 /// assert_eq!(linear_ticks(0.0, 1.0, 6), vec![0.0, 0.2, 0.4, 0.6000000000000001, 0.8, 1.0]);
 /// assert_eq!(linear_ticks(-3.0, 7.5, 5), vec![-2.0, 0.0, 2.0, 4.0, 6.0]);
 /// assert_eq!(linear_ticks(-3.0, 7.5, 4), vec![0.0, 5.0]);
@@ -812,7 +812,7 @@ fn linear_ticks_step(lo: f64, hi: f64, max_ticks: usize) -> (Vec<f64>, f64) {
 /// Returns no ticks if a bound is not finite and positive.
 ///
 /// ```
-/// use eulermembrane::io::plot::log_ticks;
+/// use eulermembrane_cases::plot::log_ticks;
 /// assert_eq!(log_ticks(0.5, 2000.0, 8), vec![1.0, 10.0, 100.0, 1000.0]);
 /// assert_eq!(log_ticks(1e-12, 1.0, 5), vec![1e-12, 1e-9, 1e-6, 1e-3, 1.0]);
 /// assert_eq!(log_ticks(0.15, 1.1, 8), vec![0.2, 0.5, 1.0]);
@@ -1669,7 +1669,7 @@ fn marker_path(d: &mut String, marker: Marker, (cx, cy): (f64, f64), r: f64) {
 /// a non-finite level give no segments.
 ///
 /// ```
-/// use eulermembrane::io::plot::{contour_segments, Figure};
+/// use eulermembrane_cases::plot::{contour_segments, Figure};
 /// // phi = 1 inside the unit circle, sampled on [-2, 2]^2.
 /// let n = 41;
 /// let h = 4.0 / (n - 1) as f64;

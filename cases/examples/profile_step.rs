@@ -6,13 +6,13 @@
 //!   `elastic`, `elastic_bending`).
 //!
 //! Prints wall and CPU time per step (CPU time of all threads: the machine may be shared).
-mod common;
 use eulermembrane::Real;
 use eulermembrane::fluid::{FlowConfig, FlowStepper, Materials};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::Skalak;
 use eulermembrane::simulation::{Phase, Scene};
+use eulermembrane_cases as common;
 use std::time::Instant;
 
 fn report(n: usize, steps: usize, wall: f64, cpu: f64, extra: &str) {

@@ -38,17 +38,17 @@
 //!
 //! Run: `cargo run --release --example accuracy_cost -- --study all --jobs 2`.
 
-mod common;
+use eulermembrane_cases as common;
 
 use common::shear::{self, ShearCase};
 use common::vortex::{self, VortexCase};
-use common::{Args, BoxResult, num, read_points, reference_dir, result};
+use common::{Args, BoxResult, num, reference_dir, result};
 use eulermembrane::Real;
 use eulermembrane::fluid::{KrylovParams, PredictorSolver, SorParams};
 use eulermembrane::interface::NormalScheme;
-use eulermembrane::io::csv::CsvWriter;
-use eulermembrane::io::plot::{Figure, LineStyle, Scale};
 use eulermembrane::simulation::Settings;
+use eulermembrane_cases::csv::{CsvWriter, read_xy};
+use eulermembrane_cases::plot::{Figure, LineStyle, Scale};
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -202,8 +202,8 @@ fn run() -> BoxResult<()> {
         max_vortex_n: args.get("max-vortex-n", 256),
         study_n: args.get("study-n", 24),
     };
-    let reference = read_points(
-        &reference_dir(args.opt("reference"), "shear_neo_hookean")?
+    let reference = read_xy(
+        reference_dir(args.opt("reference"), "shear_neo_hookean")?
             .join(format!("ramanujan_pozrikidis_1998_ca_{CA}.csv")),
     )?;
     let studies: Vec<(&str, Vec<Job>)> = names.iter().map(|s| (*s, jobs(s, &opts))).collect();

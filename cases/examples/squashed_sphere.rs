@@ -45,17 +45,17 @@
 //!
 //! Run: `cargo run --release --example squashed_sphere -- --n 64`.
 
-mod common;
+use eulermembrane_cases as common;
 
 use common::{Args, num, order, result};
 use eulermembrane::diagnostics::{EnergyBudget, ModeWeight, surface_modes};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::io::csv::CsvWriter;
-use eulermembrane::io::plot::{Figure, Panels, contour_segments};
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{NeoHookean, StrainAdvection};
 use eulermembrane::simulation::{GsTransport, Phase, ReferenceArea, Scene, Settings, Simulation};
+use eulermembrane_cases::csv::CsvWriter;
+use eulermembrane_cases::plot::{Figure, Panels, contour_segments};
 use std::time::Instant;
 
 const RADIUS: f64 = 0.1;

@@ -1,4 +1,4 @@
-//! The stability suite of issue 7, long versions: the hard cases of `tests/stability.rs` (a
+//! The stability suite of issue 7, long versions: the hard cases of `cases/tests/stability.rs` (a
 //! capsule of radius 1 in shear flow, `rho = 1`, `mu = 100`, shear rate 1, `E_s = mu a / Ca`:
 //! stiff `Ca = 0.0125`, `Ca = 0.2`, strong bending, viscosity ratios 5 and 1/5, a capsule one
 //! radius from a wall, two capsules colliding), each searched for its largest stable `dt` with
@@ -15,7 +15,7 @@
 //! - `breakup`: `Ca = 0.2, 0.4, ... 6.4` at a fixed `dt` to `t = --t-end` (6): where the method
 //!   fails or the capsule breaks up, `RESULT case=breakup ca=... ...` per capillary number;
 //! - `long`: `--steps` (10^4) steps of `--dt` (5e-4) of the `Ca = 0.05` capsule (or `--case`)
-//!   on a coarse grid (`--n 16`, capsule radius 4 cells), as `tests/stability.rs` runs it,
+//!   on a coarse grid (`--n 16`, capsule radius 4 cells), as `cases/tests/stability.rs` runs it,
 //!   `RESULT case=long_... steps=... volume_drift=... area_drift=... elastic_max=...`.
 //!
 //! Flags: `--n N` (16; cells along x of the 4-wide box), `--mode M`, `--t-end T`, `--only CASE`
@@ -24,13 +24,12 @@
 //!
 //! Run: `cargo run --release --example stability -- --mode sweep`.
 
-mod common;
-#[path = "common/stability.rs"]
-mod stability;
+use eulermembrane_cases as common;
+use eulermembrane_cases::stability;
 
 use common::{Args, num, result};
-use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::simulation::MembraneCoupling;
+use eulermembrane_cases::csv::CsvWriter;
 use stability::{Bracket, Case, Search, build, cases, largest_stable_dt, run};
 use std::path::Path;
 use std::time::Instant;

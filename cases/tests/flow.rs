@@ -1,13 +1,11 @@
 //! The flow stepper against analytic solutions at small N (the large runs are the examples
 //! `taylor_green`, `channel_flow`, `two_layer_couette`, `solver_compare`).
-#[path = "../examples/common/cases.rs"]
-mod cases;
-
 use eulermembrane::fluid::{
     Coefficient, FlowConfig, FlowStepper, Forcing, KrylovParams, Materials, PredictorSolver, SorParams,
 };
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField, ops::par_interior_update};
 use eulermembrane::{Error, Real};
+use eulermembrane_cases::flows;
 
 fn order(e1: f64, e2: f64) -> f64 {
     (e1 / e2).log2()
@@ -16,8 +14,8 @@ fn order(e1: f64, e2: f64) -> f64 {
 #[test]
 fn taylor_green_is_second_order_with_krylov_and_sor() {
     for solver in [PredictorSolver::default(), PredictorSolver::Sor(SorParams::default())] {
-        let (e16, _) = cases::taylor_green(16, 0.5, solver);
-        let (e32, _) = cases::taylor_green(32, 0.5, solver);
+        let (e16, _) = flows::taylor_green(16, 0.5, solver);
+        let (e32, _) = flows::taylor_green(32, 0.5, solver);
         let p = order(e16, e32);
         assert!(p >= 1.9, "order {p} ({e16:.3e} -> {e32:.3e}) with {solver:?}");
         assert!(e32 < 2e-4, "{e32}");
@@ -30,10 +28,10 @@ fn poiseuille_and_couette_reach_the_exact_steady_profiles() {
     let mut errs = Vec::new();
     for n in [8usize, 16] {
         let dt = 2.0 / (n * n) as f64;
-        let p = cases::poiseuille(n, mu, f, dt, 3.0);
-        errs.push(cases::rel_max_err(&p, |y| cases::poiseuille_exact(y, f64::INFINITY, mu, f)));
-        let c = cases::couette(n, mu, 1.0, dt, 3.0);
-        let ec = cases::rel_max_err(&c, |y| cases::couette_exact(y, f64::INFINITY, mu, 1.0));
+        let p = flows::poiseuille(n, mu, f, dt, 3.0);
+        errs.push(flows::rel_max_err(&p, |y| flows::poiseuille_exact(y, f64::INFINITY, mu, f)));
+        let c = flows::couette(n, mu, 1.0, dt, 3.0);
+        let ec = flows::rel_max_err(&c, |y| flows::couette_exact(y, f64::INFINITY, mu, 1.0));
         assert!(ec < 1e-6, "couette n={n}: {ec}");
     }
     assert!(errs[1] < 4e-3, "{errs:?}");
@@ -43,10 +41,10 @@ fn poiseuille_and_couette_reach_the_exact_steady_profiles() {
 #[test]
 fn start_up_transients_follow_the_series_solutions() {
     let (mu, t) = (1.0, 0.05);
-    let p = cases::poiseuille(16, mu, 1.0, 2e-4, t);
-    let ep = cases::rel_max_err(&p, |y| cases::poiseuille_exact(y, t, mu, 1.0));
-    let c = cases::couette(16, mu, 1.0, 2e-4, t);
-    let ec = cases::rel_max_err(&c, |y| cases::couette_exact(y, t, mu, 1.0));
+    let p = flows::poiseuille(16, mu, 1.0, 2e-4, t);
+    let ep = flows::rel_max_err(&p, |y| flows::poiseuille_exact(y, t, mu, 1.0));
+    let c = flows::couette(16, mu, 1.0, 2e-4, t);
+    let ec = flows::rel_max_err(&c, |y| flows::couette_exact(y, t, mu, 1.0));
     assert!(ep < 1.2e-2 && ec < 5e-3, "poiseuille {ep:.3e} couette {ec:.3e}");
 }
 
@@ -56,8 +54,8 @@ fn two_layer_couette_converges_to_the_sharp_interface_profile() {
     let e: Vec<f64> = [8usize, 16]
         .iter()
         .map(|&n| {
-            let prof = cases::two_layer_couette(n, mu1, mu2, yi);
-            cases::rel_max_err(&prof, |y| cases::two_layer_exact(y, mu1, mu2, yi))
+            let prof = flows::two_layer_couette(n, mu1, mu2, yi);
+            flows::rel_max_err(&prof, |y| flows::two_layer_exact(y, mu1, mu2, yi))
         })
         .collect();
     assert!(e[1] < 6e-2 && e[1] < e[0], "{e:?}");

@@ -1,17 +1,14 @@
 //! The stability suite at small N (issue 7, item 3): the hard cases of
-//! `examples/common/stability.rs` run with the default quasi-implicit membrane stress; each
+//! `eulermembrane_cases::stability` run with the default quasi-implicit membrane stress; each
 //! must stay finite, keep every capsule's volume to 1e-8 and keep its energies bounded. The
 //! area drift is printed (run with `--nocapture`). The long versions, the largest stable `dt`
-//! per case and the `dt` rule's measurements are in `examples/stability.rs` and
+//! per case and the `dt` rule's measurements are in the `stability` example and
 //! `docs/stability.md`.
-
-#[path = "../examples/common/stability.rs"]
-mod stability;
 
 use eulermembrane::membrane::BendingForm;
 use eulermembrane::simulation::stability::{C_EXPLICIT, C_QUASI_IMPLICIT, membrane_dt_limit};
 use eulermembrane::simulation::{MembraneCoupling, Settings};
-use stability::{Case, Layout, Outcome, build, cases, run};
+use eulermembrane_cases::stability::{Case, Layout, Outcome, build, cases, run};
 
 /// Cells along x of the 4-wide box (`h = 1/4`, capsule radius 4 cells).
 const N: usize = 16;

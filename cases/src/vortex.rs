@@ -8,7 +8,6 @@
 //! paper or the classic `S = sin^2`. Face velocities are differences of `Psi` at cell nodes, so
 //! the discrete divergence vanishes to round-off. The time step is the largest with
 //! `max CFL <= cfl` that divides `T`.
-#![allow(dead_code)]
 
 use eulermembrane::Real;
 use eulermembrane::grid::{Field, Grid, VectorField};

@@ -1,19 +1,22 @@
 //! Plotting, marching squares and CSV: the SVG is well formed and says what it should, ticks
 //! are right on both scales, contours of a circle close and sit on the circle, tables survive
-//! a round trip bit for bit, and published reference curves read.
+//! a round trip bit for bit, published reference curves read, and neither the plotter nor the
+//! CSV writer panics on bad input.
 
 use eulermembrane::Error;
-use eulermembrane::io::csv::{CsvWriter, format_f64, read_columns, read_xy, write_columns};
-use eulermembrane::io::plot::{
+use eulermembrane_cases::csv::{CsvWriter, format_f64, read_columns, read_xy, write_columns};
+use eulermembrane_cases::plot::{
     Color, Figure, Legend, LineStyle, Marker, Panels, Scale, contour_segments, linear_ticks, log_ticks,
 };
+use proptest::prelude::*;
 use std::collections::HashMap;
 use std::f64::consts::PI;
+use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
-/// A scratch directory for this test binary, under `target/`.
+/// A scratch directory for this test binary, under the target directory's `tmp/`.
 fn scratch(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("target/test-output/plot").join(name)
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("test-output/plot").join(name)
 }
 
 /// Checks that the tags of `svg` nest properly; returns the element names seen.
@@ -520,7 +523,7 @@ fn reads_published_reference_curve() {
 // Figures to look at
 // ---------------------------------------------------------------------------------------------
 
-/// Writes the kinds of figure the examples make to `target/test-output/plot/`, for a person
+/// Writes the kinds of figure the examples make to `target/tmp/test-output/plot/`, for a person
 /// to look at: reference curves with markers and a model line, a log-log convergence plot, a
 /// contour plot with equal aspect, and the three as panels.
 #[test]
@@ -580,5 +583,66 @@ fn example_figures_are_written() {
     panels.save(out.join("panels.svg")).unwrap();
     for name in ["shear.svg", "convergence.svg", "shape.svg", "panels.svg"] {
         check_well_formed(&std::fs::read_to_string(out.join(name)).unwrap());
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad input
+// ---------------------------------------------------------------------------------------------
+
+/// Runs `f`, failing the test if it panics.
+fn no_panic<R>(what: &str, f: impl FnOnce() -> R) -> R {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(_) => panic!("{what} panicked"),
+    }
+}
+
+/// Runs `f`, which must return an error with a message (and not panic).
+fn refused<T>(what: &str, f: impl FnOnce() -> eulermembrane::Result<T>) {
+    match no_panic(what, f) {
+        Ok(_) => panic!("{what} accepted an invalid input"),
+        Err(e) => assert!(!e.to_string().is_empty(), "{what}: empty message"),
+    }
+}
+
+/// Non-finite numbers.
+fn non_finite() -> impl Strategy<Value = f64> {
+    prop_oneof![Just(f64::NAN), Just(f64::INFINITY), Just(f64::NEG_INFINITY)]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn csv_headers_are_checked(name in "[a-z]{0,4}[,\"\n\r][a-z]{0,4}") {
+        let dir = scratch(&format!("bad_header_{}", std::process::id()));
+        refused("CsvWriter::create", || CsvWriter::create(dir.join("a.csv"), &["x", &name]));
+        refused("CsvWriter::create", || CsvWriter::create(dir.join("b.csv"), &[]));
+        let mut w = CsvWriter::create(dir.join("c.csv"), &["x", "y"]).unwrap();
+        refused("CsvWriter::row", || w.row(&[1.0]));
+        prop_assert!(w.row(&[1.0, f64::NAN]).is_ok());
+        drop(w);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn plots_take_any_numbers_without_panicking(
+        xs in proptest::collection::vec(prop_oneof![any::<f64>(), non_finite()], 0..20),
+        ys in proptest::collection::vec(prop_oneof![any::<f64>(), non_finite()], 0..20),
+        w in any::<f64>(),
+        h in any::<f64>(),
+        r in (any::<f64>(), any::<f64>()),
+        log in any::<bool>(),
+    ) {
+        // The plot builders clamp or ignore invalid values (documented) rather than erring.
+        let svg = no_panic("Figure", || {
+            let scale = if log { Scale::Log10 } else { Scale::Linear };
+            let mut fig = Figure::new("t").size(w, h).x_range(r.0, r.1).y_range(r.1, r.0).x_scale(scale).y_scale(scale);
+            fig.line(&xs, &ys, "a").width(w).marker_size(h);
+            fig.markers(&ys, &xs, "b");
+            fig.to_svg()
+        });
+        prop_assert!(svg.starts_with("<svg") && !svg.contains("NaN") && !svg.contains("inf"));
     }
 }

@@ -7,13 +7,12 @@
 //! `a = 1` at the origin, `rho = 1`, `Re = rho a^2 / mu = 0.01` so `mu = 100`,
 //! `E_s = mu a / Ca` (neo-Hookean), bending `E_b = E_b' a^2 E_s`. The flow starts as the
 //! undisturbed shear `u = z`. Time is in units of the inverse shear rate.
-#![allow(dead_code)]
 
+use crate::csv::CsvWriter;
 use eulermembrane::Real;
 use eulermembrane::diagnostics::{ellipsoid_fit, taylor_deformation};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::io::csv::CsvWriter;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::NeoHookean;
 use eulermembrane::simulation::stability::bending_dt_limit;

@@ -1,8 +1,7 @@
-//! The hard cases of the stability suite, shared by `examples/stability.rs` and
-//! `tests/stability.rs` (included there with `#[path]`): a capsule of radius `a = 1` in the
-//! shear flow of Sec. 3.3 (`rho = 1`, `mu = 100`, shear rate 1, `E_s = mu a / Ca`), on a
-//! smaller box than the paper's so that the cases run at small N.
-#![allow(dead_code)]
+//! The hard cases of the stability suite, shared by the `stability` example and
+//! `tests/stability.rs`: a capsule of radius `a = 1` in the shear flow of Sec. 3.3 (`rho = 1`,
+//! `mu = 100`, shear rate 1, `E_s = mu a / Ca`), on a smaller box than the paper's so that the
+//! cases run at small N.
 
 use eulermembrane::Error;
 use eulermembrane::grid::{Boundary, Grid};

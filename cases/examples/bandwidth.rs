@@ -7,7 +7,7 @@
 //! rate measures the queue, the CPU rate what the memory delivers while we run.
 //!
 //! `cargo run --release --example bandwidth -- --mb 128 --reps 20`
-mod common;
+use eulermembrane_cases as common;
 use rayon::prelude::*;
 use std::time::Instant;
 

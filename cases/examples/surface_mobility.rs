@@ -34,7 +34,7 @@
 //!
 //! Run: `cargo run --release --example surface_mobility`.
 
-mod common;
+use eulermembrane_cases as common;
 
 use common::{Args, BoxResult, num, result};
 use eulermembrane::diagnostics::{
@@ -43,9 +43,9 @@ use eulermembrane::diagnostics::{
 };
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::io::csv::write_columns;
-use eulermembrane::io::plot::Figure;
 use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use eulermembrane_cases::csv::write_columns;
+use eulermembrane_cases::plot::Figure;
 use std::time::Instant;
 
 const MU: f64 = 100.0;
