@@ -266,8 +266,8 @@ fn two_capsules_passing_close_do_not_merge() {
 }
 
 /// Start-up of a channel flow under a uniform body force (walls in z, no capsule): the flow
-/// stays unidirectional, so pressure and convection do no work and the Crank-Nicolson balance
-/// `rho (|v^{n+1}|^2 - |v^n|^2)/2 = dt (f - Phi) at v^{n+1/2}` is exact. The ledger of
+/// stays unidirectional, so pressure and convection do no work and the scheme's balance
+/// `rho (|v^{n+1}|^2 - |v^n|^2)/2 = dt (f . v^{n+1/2} - v^{n+1/2} . A v_theta)` is exact. The ledger of
 /// `track_energy` reproduces it to round-off; the trapezoid rule on the rates does not (it
 /// counts `dt Phi(v^{n+1} - v^n)/4` too much dissipation per step, most at the first step).
 #[test]

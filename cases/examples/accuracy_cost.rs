@@ -40,7 +40,7 @@
 
 use eulermembrane_cases as common;
 
-use common::shear::{self, ShearCase};
+use common::shear::{self, ShearCase, Steps};
 use common::vortex::{self, VortexCase};
 use common::{Args, BoxResult, num, reference_dir, result};
 use eulermembrane::Real;
@@ -457,7 +457,15 @@ fn interpolate(p: &[(f64, f64)], x: f64) -> f64 {
 }
 
 fn measure_shear<T: Real>(job: &ShearJob, reference: &[(f64, f64)]) -> Measured {
-    let case = ShearCase { n: job.n, ca: CA, eb_prime: 0.0, lambda: 1.0, dt: job.dt, t_end: WINDOW.1 };
+    let case = ShearCase {
+        n: job.n,
+        ca: CA,
+        eb_prime: 0.0,
+        lambda: 1.0,
+        dt: job.dt,
+        t_end: WINDOW.1,
+        steps: Steps::Fixed,
+    };
     let o = match shear::run::<T>(&case, job.settings::<T>(), 0.05, None, true) {
         Ok(o) => o,
         Err(e) => return failed(e.to_string()),

@@ -3,31 +3,42 @@
 //! Le 2010) from `shared/reference`. The set-up is in `cases/src/shear.rs`.
 //!
 //! Prints progress; writes into `--out` the history `history.csv` (t, D, angle, area, volume
-//! drift, predictor iterations; written as the run goes, so a failed run leaves it), the plot `deformation.svg` of `D(t)` with the reference curves
-//! (like Fig. 10, or Fig. 11 with bending), ParaView snapshots (`shear.pvd`); ends with
-//! `RESULT ca=... n=... d_steady=... angle_deg=... d_ref=... rel_err=... wall_s=...`, where
-//! `d_steady` is the mean `D` over the last time unit and `d_ref` the published late-time value
-//! (NaN where there is none).
+//! drift, predictor iterations, dt; written as the run goes, so a failed run leaves it), the plot
+//! `deformation.svg` of `D(t)` with the reference curves (like Fig. 10, or Fig. 11 with bending),
+//! ParaView snapshots (`shear.pvd`); ends with `RESULT ca=... n=... d_steady=... angle_deg=...
+//! d_ref=... rel_err=... steps=... wall_s=... mean_dt=... t_end=... s0_ratio=...
+//! max_curve_err=...`, where `d_steady` is the mean `D` over the last time unit, `d_ref` the
+//! published late-time value (NaN where there is none), `t_end` the time reached, `s0_ratio`
+//! the membrane's reference area at the end over its initial value, and `max_curve_err` the
+//! largest `|D - D_BEM| / D_BEM` over the times of the Ramanujan & Pozrikidis (1998) curve in
+//! `[0.5, 4]` (NaN without it).
+//!
+//! Steps: adaptive by default (`simulation::AdaptiveDt`: Courant target `--cfl`, the membrane
+//! and bending limits, at most `--max-dt`); `--dt DT` takes fixed steps of `DT` instead (the
+//! paper's is `0.001 (128/N)^2`; with `--bending` keep within the bending rule
+//! `simulation::stability::bending_dt_limit`).
 //!
 //! `--sweep`: every Ca of Fig. 10 (0.0125 ... 0.2) at `--n`, one RESULT line each, a table
 //! `sweep.csv` and the plot `sweep.svg` of all histories with the references.
 //!
 //! Flags: `--ca` (0.05), `--n` (32; cells along x and z, N/2 along y; the radius is N/8
-//! cells), `--dt` (half the paper's `0.001 (128/N)^2`, and within the bending rule with
-//! `--bending`; see `common::shear`), `--t-end` (6), `--bending` (`E_b'`, 0 for none),
+//! cells), `--dt` (fixed steps; none: adaptive), `--cfl` (0.3), `--max-dt` (0.05),
+//! `--viscous-theta` (0.6, `Settings`' default `ViscousScheme::Theta(0.6)`; 0.5 is the paper's
+//! Crank–Nicolson), `--t-end` (6), `--bending` (`E_b'`, 0 for none),
 //! `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
 //! `--sweep`, `--gs-transport paper|tangential|frame|both` (`Settings::gs_transport`, default
 //! `paper`), `--conserve-area` (`Settings::reference_area`),
 //! `--bending-form divergence|energy` (`Settings::bending_form`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
-//! Run: `cargo run --release --example shear_capsule` (about a minute on 2 cores; `--n 64` for
-//! 8 cells per radius, about 30 minutes).
+//! Run: `cargo run --release --example shear_capsule` (about 10 s on one core; `--n 64` for
+//! 8 cells per radius, a few minutes).
 
 use eulermembrane_cases as common;
 
-use common::shear::{self, ShearCase, ShearOutcome};
+use common::shear::{self, ShearCase, ShearOutcome, Steps};
 use common::{Args, BoxResult, num, reference_dir, result};
+use eulermembrane::fluid::ViscousScheme;
 use eulermembrane::membrane::BendingForm;
 use eulermembrane::simulation::{GsTransport, ReferenceArea, Settings};
 use eulermembrane_cases::csv::{CsvWriter, read_xy};
@@ -50,8 +61,12 @@ fn run() -> BoxResult<()> {
         ca,
         eb_prime,
         lambda,
-        dt: args.get("dt", ShearCase::default_dt(n, ca, eb_prime, lambda)),
+        dt: args.opt("dt").unwrap_or(args.get("max-dt", 0.05)),
         t_end: args.get("t-end", 6.0),
+        steps: match args.opt::<f64>("dt") {
+            Some(_) => Steps::Fixed,
+            None => Steps::Adaptive { cfl: args.get("cfl", 0.3) },
+        },
     };
     let refdir: Option<std::path::PathBuf> = args.opt("reference");
     if args.flag("sweep") {
@@ -64,7 +79,7 @@ fn run() -> BoxResult<()> {
             let case = ShearCase { ca, ..base.clone() };
             eprintln!("shear_capsule: Ca = {ca}, N = {n}, dt = {:.3e}, t_end = {}", case.dt, case.t_end);
             let o = simulate(&args, &case, None)?;
-            let (d_ref, rel) = report(&case, &o);
+            let (d_ref, rel) = report(&case, &o, refdir.clone());
             csv.row(&[ca, n as f64, o.d_steady, o.angle_steady, d_ref, rel, o.wall_s])?;
             let t: Vec<f64> = o.samples.iter().map(|s| s.t).collect();
             fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), &format!("Ca = {ca}"));
@@ -95,9 +110,9 @@ fn run() -> BoxResult<()> {
             .y_label("D");
     let t: Vec<f64> = o.samples.iter().map(|s| s.t).collect();
     fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), "present (full Eulerian)");
-    add_references(&mut fig, refdir, base.ca, base.eb_prime, false);
+    add_references(&mut fig, refdir.clone(), base.ca, base.eb_prime, false);
     fig.save(out.join("deformation.svg"))?;
-    report(&base, &o);
+    report(&base, &o, refdir);
     Ok(())
 }
 
@@ -110,7 +125,11 @@ fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResu
     ) -> Settings<T> {
         let reference_area =
             if args.flag("conserve-area") { ReferenceArea::Conserved } else { ReferenceArea::Transported };
-        Settings { gs_transport, reference_area, bending_form, ..Settings::default() }
+        let mut s = Settings { gs_transport, reference_area, bending_form, ..Settings::default() };
+        let theta: f64 = args.get("viscous-theta", 0.6);
+        s.flow.viscous =
+            if theta == 0.5 { ViscousScheme::CrankNicolson } else { ViscousScheme::Theta(theta) };
+        s
     }
     let form = BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
     let transport = GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?;
@@ -121,9 +140,33 @@ fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResu
     }
 }
 
+/// The largest `|D - D_BEM| / D_BEM` over the times of the Ramanujan & Pozrikidis (1998)
+/// curve for this Ca in `[0.5, 4]` that the run reached (`D` interpolated linearly between
+/// samples); NaN without the curve or with bending or a viscosity contrast.
+fn max_curve_err(case: &ShearCase, o: &ShearOutcome, given: Option<std::path::PathBuf>) -> f64 {
+    if case.eb_prime > 0.0 || case.lambda != 1.0 {
+        return f64::NAN;
+    }
+    let Ok(dir) = reference_dir(given, "shear_neo_hookean") else { return f64::NAN };
+    let Ok(curve) = read_xy(dir.join(format!("ramanujan_pozrikidis_1998_ca_{}.csv", case.ca))) else {
+        return f64::NAN;
+    };
+    let d_at = |t: f64| {
+        o.samples.windows(2).find(|w| w[0].t <= t && t <= w[1].t).map(|w| {
+            let f = if w[1].t > w[0].t { (t - w[0].t) / (w[1].t - w[0].t) } else { 0.0 };
+            w[0].d + f * (w[1].d - w[0].d)
+        })
+    };
+    curve
+        .iter()
+        .filter(|&&(t, _)| (0.5..=4.0).contains(&t))
+        .filter_map(|&(t, d_bem)| d_at(t).map(|d| (d - d_bem).abs() / d_bem))
+        .fold(f64::NAN, f64::max)
+}
+
 /// Prints the RESULT line of a run; returns the reference `D` and the relative error (NaN
 /// where there is no reference).
-fn report(case: &ShearCase, o: &ShearOutcome) -> (f64, f64) {
+fn report(case: &ShearCase, o: &ShearOutcome, refdir: Option<std::path::PathBuf>) -> (f64, f64) {
     let d_ref = if case.lambda == 1.0 {
         shear::reference_d(case.ca, case.eb_prime).unwrap_or(f64::NAN)
     } else {
@@ -143,6 +186,10 @@ fn report(case: &ShearCase, o: &ShearOutcome) -> (f64, f64) {
         ("wall_s", format!("{:.1}", o.wall_s)),
         ("d_ellipsoid", num(o.d_ellipsoid_steady)),
         ("angle_ellipsoid_deg", format!("{:.2}", o.angle_ellipsoid_steady)),
+        ("mean_dt", num(o.t_end / o.steps.max(1) as f64)),
+        ("t_end", format!("{:.4}", o.t_end)),
+        ("s0_ratio", num(o.s0_ratio)),
+        ("max_curve_err", num(max_curve_err(case, o, refdir))),
     ]);
     (d_ref, rel)
 }

@@ -15,8 +15,7 @@ use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::stability::bending_dt_limit;
-use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{AdaptiveDt, FixedDt, Phase, Scene, Settings, Simulation, TimeStepping};
 use std::path::Path;
 use std::time::Instant;
 
@@ -54,34 +53,25 @@ pub struct ShearCase {
     pub eb_prime: f64,
     /// Viscosity inside over viscosity outside.
     pub lambda: f64,
-    /// Time step.
+    /// Time step: every step with [`Steps::Fixed`], the largest with [`Steps::Adaptive`].
     pub dt: f64,
     /// End time.
     pub t_end: f64,
+    /// How the steps are chosen.
+    pub steps: Steps,
 }
 
-impl ShearCase {
-    /// The paper's time step for `n`: `0.001 (128/N)^2` (Sec. 3.3.1).
-    pub fn paper_dt(n: usize) -> f64 {
-        0.001 * (128.0 / n as f64).powi(2)
-    }
-
-    /// The examples' default time step, half of [`paper_dt`](Self::paper_dt): with the
-    /// paper's step the Ca = 0.05 run went unstable near t = 4.9 at N = 32 and began to (area
-    /// jump, more predictor iterations) near t = 6 at N = 48. With bending (`eb_prime > 0`) it
-    /// is also kept within the library's bending rule
-    /// (`simulation::stability::bending_dt_limit`, `0.15 mu h^3 / E_b`): 3.9e-4 at N = 64 for
-    /// `E_b'` = 0.0375, where twice that fails.
-    pub fn default_dt(n: usize, ca: f64, eb_prime: f64, lambda: f64) -> f64 {
-        let dt = 0.5 * Self::paper_dt(n);
-        if eb_prime > 0.0 {
-            let mu_mean = 0.5 * MU * (1.0 + lambda);
-            let limit = bending_dt_limit(mu_mean, 8.0 / n as f64, eb_prime * MU / ca);
-            limit.map_or(dt, |b| dt.min(b))
-        } else {
-            dt
-        }
-    }
+/// How a shear run chooses its steps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Steps {
+    /// Every step is [`ShearCase::dt`] (the last one lands within `dt / 2` of the end).
+    Fixed,
+    /// [`AdaptiveDt`] with this Courant target and at most [`ShearCase::dt`], landing on the
+    /// end time.
+    Adaptive {
+        /// The target Courant number `max|v| dt / h`.
+        cfl: f64,
+    },
 }
 
 /// A sample of the history.
@@ -99,6 +89,8 @@ pub struct ShearSample {
     pub volume_drift: f64,
     /// Predictor iterations of the step.
     pub iterations: usize,
+    /// The step that reached this sample (0 at `t` = 0).
+    pub dt: f64,
     /// `D = (a - c)/(a + c)` of the ellipsoid of equal volume and inertia (`ellipsoid_fit`).
     pub d_ellipsoid: f64,
     /// Inclination of that ellipsoid's longest axis in the x-z plane, from x towards z, degrees.
@@ -126,6 +118,11 @@ pub struct ShearOutcome {
     pub cpu_s: f64,
     /// Steps taken.
     pub steps: usize,
+    /// The time reached.
+    pub t_end: f64,
+    /// The membrane's reference area `s_0` (`Simulation::reference_area`) at the end over its
+    /// initial value.
+    pub s0_ratio: f64,
 }
 
 /// The scene of Sec. 3.3 in precision `T`, with `settings`.
@@ -169,29 +166,48 @@ pub fn run<T: Real>(
     let mut history = match out {
         Some((dir, _)) => Some(CsvWriter::create(
             dir.join("history.csv"),
-            &["t", "d", "angle_deg", "area_ratio", "volume_drift", "iterations"],
+            &["t", "d", "angle_deg", "area_ratio", "volume_drift", "iterations", "dt"],
         )?),
         None => None,
     };
     let mut sim = build(case, settings)?;
-    let steps = (case.t_end / case.dt).round().max(1.0) as usize;
-    let dt = T::lit(case.dt);
+    // The expected number of steps (exact for fixed steps; for adaptive ones the progress
+    // lines estimate it from the time reached).
+    let expected = (case.t_end / case.dt).round().max(1.0) as usize;
+    let mut stepping: Box<dyn TimeStepping<T>> = match case.steps {
+        Steps::Fixed => Box::new(FixedDt::new(T::lit(case.dt))?),
+        Steps::Adaptive { cfl } => Box::new(AdaptiveDt::new(case.dt)?.cfl(cfl)?),
+    };
+    let until = T::lit(case.t_end);
     let v0 = sim.volume(0)?;
     let a0 = sim.area(0)?;
+    let s00 = sim.reference_area(0)?.unwrap_or(f64::NAN);
+    // Fixed steps sample every `every` steps (and the last), adaptive ones at the first step
+    // past each multiple of `sample_every` (and the last).
     let every = ((sample_every / case.dt).round() as usize).max(1);
+    let mut next_sample = sample_every;
     let mut samples = Vec::new();
     let mut pvd = PvdSeries::new();
     let mut next_vtk = 0.0;
     let mut max_drift = 0.0f64;
     let clock = Instant::now();
     let cpu0 = super::cpu_seconds();
-    let mut iterations = 0;
-    for s in 0..=steps {
-        if s > 0 {
-            iterations = sim.step(dt)?.flow.predictor_iterations;
-        }
+    let (mut iterations, mut dt, mut s) = (0, 0.0, 0usize);
+    loop {
         let t = sim.time().f64();
-        if s.is_multiple_of(every) || s == steps {
+        // Whether this is the last step: fixed steps know it, adaptive ones land on `t_end`.
+        let last = match case.steps {
+            Steps::Fixed => t + 0.5 * case.dt >= case.t_end,
+            Steps::Adaptive { .. } => t >= case.t_end * (1.0 - 1e-12),
+        };
+        let due = match case.steps {
+            Steps::Fixed => s.is_multiple_of(every),
+            Steps::Adaptive { .. } => s == 0 || t >= next_sample - 1e-9 * sample_every,
+        };
+        if due || last {
+            while next_sample <= t + 1e-9 * sample_every {
+                next_sample += sample_every;
+            }
             let drift = (sim.volume(0)? - v0).abs() / v0;
             max_drift = max_drift.max(drift);
             let centre = sim.centroid(0)?;
@@ -204,12 +220,13 @@ pub fn run<T: Real>(
                 area_ratio: sim.area(0)? / a0,
                 volume_drift: drift,
                 iterations,
+                dt,
                 d_ellipsoid: ef.deformation(),
                 // NaN where the longest axis is not in the x-z plane (the sphere at t = 0).
                 angle_ellipsoid_deg: ef.inclination_deg(1).unwrap_or(f64::NAN),
             };
             if let Some(h) = history.as_mut() {
-                h.row(&[t, sample.d, sample.angle_deg, sample.area_ratio, drift, iterations as f64])?;
+                h.row(&[t, sample.d, sample.angle_deg, sample.area_ratio, drift, iterations as f64, dt])?;
             }
             samples.push(sample);
         }
@@ -222,20 +239,31 @@ pub fn run<T: Real>(
             pvd.push(t, name);
             next_vtk += every_t;
         }
+        // Progress against the expected steps (adaptive: extrapolated from the time reached).
+        let total = match case.steps {
+            Steps::Fixed => expected,
+            Steps::Adaptive { .. } if t > 0.0 => ((s as f64) * case.t_end / t).round() as usize,
+            Steps::Adaptive { .. } => expected,
+        }
+        .max(s);
         if !quiet && s > 0 {
             let last = samples.last().expect("sampled at step 0");
             // The last sample may be up to `sample_every` older than the step: say when.
             let extra = format!(
-                "D={:.4} angle={:.1} area={:.4} (sampled at t={:.3}) iters={iterations}",
+                "D={:.4} angle={:.1} area={:.4} (sampled at t={:.3}) iters={iterations} dt={dt:.2e}",
                 last.d, last.angle_deg, last.area_ratio, last.t
             );
-            super::progress(s, steps, t, &clock, &extra);
+            super::progress(s, total, t, &clock, &extra);
         }
         if let Some(h) = history.as_mut()
-            && super::progress_due(s, steps)
+            && super::progress_due(s, total)
         {
             h.flush()?;
         }
+        let Some(report) = stepping.advance(&mut sim, until)? else { break };
+        s += 1;
+        iterations = report.flow.predictor_iterations;
+        dt = report.flow.dt;
     }
     if let Some(h) = history {
         h.finish()?;
@@ -257,7 +285,9 @@ pub fn run<T: Real>(
         max_volume_drift: max_drift,
         wall_s,
         cpu_s,
-        steps,
+        steps: s,
+        t_end,
+        s0_ratio: sim.reference_area(0)?.unwrap_or(f64::NAN) / s00,
         samples,
     })
 }

@@ -429,7 +429,16 @@ impl<T: Real> Simulation<T> {
         }
         let half = &*half;
         let m = self.flow.materials();
-        let dissipation = viscous_dissipation(g, half, &m.mu, DissipationForm::Discrete)?;
+        // The scheme's viscous term acts on `v_theta = theta v1 + (1 - theta) v0`; its power on
+        // `v_half` is, `V` being symmetric, `Phi(v_half) + (theta - 1/2) (Phi(v1) - Phi(v0)) / 2`
+        // (the second term is the damping a theta above 1/2 adds; none for Crank-Nicolson).
+        let mut dissipation = viscous_dissipation(g, half, &m.mu, DissipationForm::Discrete)?;
+        let theta = self.settings.flow.viscous.implicit_weight();
+        if theta != 0.5 {
+            let phi1 = viscous_dissipation(g, v1, &m.mu, DissipationForm::Discrete)?;
+            let phi0 = viscous_dissipation(g, v0, &m.mu, DissipationForm::Discrete)?;
+            dissipation += 0.5 * (theta - 0.5) * (phi1 - phi0);
+        }
         let state = StepState {
             grid: g,
             settings: &self.settings,

@@ -110,7 +110,7 @@ impl AdaptiveDt {
     /// Default target Courant number `max|v| dt / h`. The capsule cases stay accurate (their
     /// `D` within 0.5 % of a run at a quarter of the step) and stable up to about 0.5 with the
     /// damped viscous scheme (`docs/stability.md`).
-    pub const DEFAULT_CFL: f64 = 0.25;
+    pub const DEFAULT_CFL: f64 = 0.3;
     /// Recent steps remembered for the surge tests.
     pub const WINDOW: usize = 20;
     /// A step whose predictor needs more than this many times the median iterations of the
