@@ -77,7 +77,7 @@ fn run() -> BoxResult<()> {
         )?;
         for ca in SWEEP {
             let case = ShearCase { ca, ..base.clone() };
-            eprintln!("shear_capsule: Ca = {ca}, N = {n}, dt = {:.3e}, t_end = {}", case.dt, case.t_end);
+            eprintln!("shear_capsule: Ca = {ca}, N = {n}, {}, t_end = {}", steps_text(&case), case.t_end);
             let o = simulate(&args, &case, None)?;
             let (d_ref, rel) = report(&case, &o, refdir.clone());
             csv.row(&[ca, n as f64, o.d_steady, o.angle_steady, d_ref, rel, o.wall_s])?;
@@ -90,14 +90,14 @@ fn run() -> BoxResult<()> {
         return Ok(());
     }
     eprintln!(
-        "shear_capsule: Ca = {}, E_b' = {}, lambda = {}, grid {} x {} x {}, dt = {:.3e}, t_end = {}",
+        "shear_capsule: Ca = {}, E_b' = {}, lambda = {}, grid {} x {} x {}, {}, t_end = {}",
         base.ca,
         base.eb_prime,
         base.lambda,
         n,
         n / 2,
         n,
-        base.dt,
+        steps_text(&base),
         base.t_end
     );
     let vtk_every: f64 = args.get("vtk-every", 1.0);
@@ -114,6 +114,14 @@ fn run() -> BoxResult<()> {
     fig.save(out.join("deformation.svg"))?;
     report(&base, &o, refdir);
     Ok(())
+}
+
+/// How `case` steps, for the first line of a run.
+fn steps_text(case: &ShearCase) -> String {
+    match case.steps {
+        Steps::Fixed => format!("dt = {:.3e}", case.dt),
+        Steps::Adaptive { cfl } => format!("adaptive steps (Courant number {cfl}, dt <= {:.3e})", case.dt),
+    }
 }
 
 /// Runs one case in the precision the flags ask for.
