@@ -40,7 +40,7 @@ use common::shear::{self, ShearCase, ShearOutcome, Steps};
 use common::{Args, BoxResult, num, reference_dir, result};
 use eulermembrane::fluid::ViscousScheme;
 use eulermembrane::membrane::BendingForm;
-use eulermembrane::simulation::{GsTransport, ReferenceArea, Settings};
+use eulermembrane::simulation::{AdaptiveDt, GsTransport, ReferenceArea, Settings};
 use eulermembrane_cases::csv::{CsvWriter, read_xy};
 use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;
@@ -56,18 +56,12 @@ fn run() -> BoxResult<()> {
     let out = args.out_dir("shear_capsule");
     let n: usize = args.get("n", 32);
     let (ca, eb_prime, lambda) = (args.get("ca", 0.05), args.get("bending", 0.0), args.get("lambda", 1.0));
-    let base = ShearCase {
-        n,
-        ca,
-        eb_prime,
-        lambda,
-        dt: args.opt("dt").unwrap_or(args.get("max-dt", 0.05)),
-        t_end: args.get("t-end", 6.0),
-        steps: match args.opt::<f64>("dt") {
-            Some(_) => Steps::Fixed,
-            None => Steps::Adaptive { cfl: args.get("cfl", 0.3) },
-        },
+    // `--dt` fixes the steps; without it they are adaptive, at most `--max-dt`.
+    let (dt, steps) = match args.opt::<f64>("dt") {
+        Some(dt) => (dt, Steps::Fixed),
+        None => (args.get("max-dt", 0.05), Steps::Adaptive { cfl: args.get("cfl", AdaptiveDt::DEFAULT_CFL) }),
     };
+    let base = ShearCase { n, ca, eb_prime, lambda, dt, t_end: args.get("t-end", 6.0), steps };
     let refdir: Option<std::path::PathBuf> = args.opt("reference");
     if args.flag("sweep") {
         let mut fig = Figure::new(format!("Taylor deformation, N = {n} (Fig. 10)")).x_label("t").y_label("D");

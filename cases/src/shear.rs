@@ -195,16 +195,15 @@ pub fn run<T: Real>(
     let (mut iterations, mut dt, mut s) = (0, 0.0, 0usize);
     loop {
         let t = sim.time().f64();
-        // Whether this is the last step: fixed steps know it, adaptive ones land on `t_end`.
-        let last = match case.steps {
-            Steps::Fixed => t + 0.5 * case.dt >= case.t_end,
-            Steps::Adaptive { .. } => t >= case.t_end * (1.0 - 1e-12),
+        // Whether to sample, and whether this is the last step (fixed steps know it, adaptive
+        // ones land on `t_end`).
+        let (due, at_end) = match case.steps {
+            Steps::Fixed => (s.is_multiple_of(every), t + 0.5 * case.dt >= case.t_end),
+            Steps::Adaptive { .. } => {
+                (s == 0 || t >= next_sample - 1e-9 * sample_every, t >= case.t_end * (1.0 - 1e-12))
+            }
         };
-        let due = match case.steps {
-            Steps::Fixed => s.is_multiple_of(every),
-            Steps::Adaptive { .. } => s == 0 || t >= next_sample - 1e-9 * sample_every,
-        };
-        if due || last {
+        if due || at_end {
             while next_sample <= t + 1e-9 * sample_every {
                 next_sample += sample_every;
             }
