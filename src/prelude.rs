@@ -22,7 +22,7 @@ pub use crate::interface::{InterfaceTransport, NormalEstimator};
 pub use crate::membrane::{NeoHookean, Skalak, SurfaceLaw};
 pub use crate::simulation::observer::{Checkpoints, Observer, Progress, VtkSeries};
 pub use crate::simulation::{
-    Bending, Effect, Elasticity, GsTransport, MembraneCoupling, Phase, Scene, Settings, Simulation,
-    StepReport, StepState, StepWarning, SurfaceLoad,
+    Bending, BendingCoupling, Effect, Elasticity, GsTransport, MembraneCoupling, Phase, Scene, Settings,
+    Simulation, StepReport, StepState, StepWarning, SurfaceLoad,
 };
 pub use crate::{Error, Real, Result};

@@ -29,6 +29,8 @@
 //! `--sweep`, `--gs-transport paper|tangential|frame|both` (`Settings::gs_transport`, default
 //! `paper`), `--conserve-area` (`Settings::reference_area`),
 //! `--bending-form divergence|energy` (`Settings::bending_form`),
+//! `--bending-coupling semi-implicit|explicit` (`Settings::bending_coupling`, default
+//! semi-implicit; `--bending-alpha`, 1, its weight `alpha`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
 //! Run: `cargo run --release --example shear_capsule` (about 10 s on one core; `--n 64` for
@@ -40,7 +42,7 @@ use common::shear::{self, ShearCase, ShearOutcome, Steps};
 use common::{Args, BoxResult, num, reference_dir, result};
 use eulermembrane::fluid::ViscousScheme;
 use eulermembrane::membrane::BendingForm;
-use eulermembrane::simulation::{AdaptiveDt, GsTransport, ReferenceArea, Settings};
+use eulermembrane::simulation::{AdaptiveDt, BendingCoupling, GsTransport, ReferenceArea, Settings};
 use eulermembrane_cases::csv::{CsvWriter, read_xy};
 use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;
@@ -124,10 +126,12 @@ fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResu
         args: &Args,
         bending_form: BendingForm,
         gs_transport: GsTransport,
+        bending_coupling: BendingCoupling,
     ) -> Settings<T> {
         let reference_area =
             if args.flag("conserve-area") { ReferenceArea::Conserved } else { ReferenceArea::Transported };
-        let mut s = Settings { gs_transport, reference_area, bending_form, ..Settings::default() };
+        let mut s =
+            Settings { gs_transport, reference_area, bending_form, bending_coupling, ..Settings::default() };
         let theta: f64 = args.get("viscous-theta", 0.6);
         s.flow.viscous =
             if theta == 0.5 { ViscousScheme::CrankNicolson } else { ViscousScheme::Theta(theta) };
@@ -135,10 +139,15 @@ fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResu
     }
     let form = BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
     let transport = GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?;
+    let bending = match args.get("bending-coupling", "semi-implicit".to_string()).as_str() {
+        "explicit" => BendingCoupling::Explicit,
+        "semi-implicit" => BendingCoupling::SemiImplicit { alpha: args.get("bending-alpha", 1.0) },
+        other => return Err(format!("--bending-coupling {other}: explicit or semi-implicit").into()),
+    };
     if args.flag("f32") {
-        shear::run::<f32>(case, settings(args, form, transport), 0.05, vtk, false)
+        shear::run::<f32>(case, settings(args, form, transport, bending), 0.05, vtk, false)
     } else {
-        shear::run::<f64>(case, settings(args, form, transport), 0.05, vtk, false)
+        shear::run::<f64>(case, settings(args, form, transport, bending), 0.05, vtk, false)
     }
 }
 

@@ -11,7 +11,10 @@
 //!   each (`limit_*`: how the first unstable `dt` failed);
 //! - `sweep`: the membrane-limited time step against `E_s`, `h` and `mu` (shear rate 0.1, so
 //!   that advection does not limit), `RESULT case=sweep_... ...` per point, then a least-squares
-//!   fit `dt = C mu^a h^b E_s^c` per coupling, `RESULT fit=explicit c=... mu_exp=... ...`;
+//!   fit `dt = C mu^a h^b E_s^c` per coupling, `RESULT fit=explicit c=... mu_exp=... ...`. The
+//!   bending points (`case=sweep_bending`) compare the bending couplings instead: `dt_quasi` is
+//!   the semi-implicit bending's limit, `dt_explicit` the explicit bending's (both with the
+//!   quasi-implicit in-plane stress);
 //! - `breakup`: `Ca = 0.2, 0.4, ... 6.4` at a fixed `dt` to `t = --t-end` (6): where the method
 //!   fails or the capsule breaks up, `RESULT case=breakup ca=... ...` per capillary number;
 //! - `long`: `--steps` (10^4) steps of `--dt` (5e-4) of the `Ca = 0.05` capsule (or `--case`)
@@ -28,15 +31,34 @@ use eulermembrane_cases as common;
 use eulermembrane_cases::stability;
 
 use common::{Args, num, result};
+use eulermembrane::simulation::BendingCoupling;
 use eulermembrane::simulation::MembraneCoupling;
 use eulermembrane_cases::csv::CsvWriter;
-use stability::{Bracket, Case, Search, build, cases, largest_stable_dt, run};
+use stability::{Bracket, Case, Coupling, Search, build, cases, largest_stable_dt, run};
 use std::path::Path;
 use std::time::Instant;
 
 fn main() {
     common::exit_on_error(start());
 }
+
+/// The in-plane couplings compared: quasi-implicit, then explicit (default bending).
+const IN_PLANE: [Coupling; 2] = [
+    Coupling {
+        membrane: MembraneCoupling::QuasiImplicit,
+        bending: BendingCoupling::SemiImplicit { alpha: 1.0 },
+    },
+    Coupling { membrane: MembraneCoupling::Explicit, bending: BendingCoupling::SemiImplicit { alpha: 1.0 } },
+];
+
+/// The bending couplings compared: semi-implicit, then explicit (quasi-implicit in-plane).
+const BENDING: [Coupling; 2] = [
+    Coupling {
+        membrane: MembraneCoupling::QuasiImplicit,
+        bending: BendingCoupling::SemiImplicit { alpha: 1.0 },
+    },
+    Coupling { membrane: MembraneCoupling::QuasiImplicit, bending: BendingCoupling::Explicit },
+];
 
 type Res = Result<(), Box<dyn std::error::Error>>;
 
@@ -57,9 +79,9 @@ fn start() -> Res {
     }
 }
 
-/// Both couplings' brackets, with one retry a decade lower when even `lo` fails.
-fn brackets(case: &Case, n: usize, search: Search) -> [Bracket; 2] {
-    [MembraneCoupling::QuasiImplicit, MembraneCoupling::Explicit].map(|coupling| {
+/// The brackets of the two couplings, with one retry a decade lower when even `lo` fails.
+fn brackets(case: &Case, n: usize, search: Search, couplings: [Coupling; 2]) -> [Bracket; 2] {
+    couplings.map(|coupling| {
         let clock = Instant::now();
         let mut b = largest_stable_dt(case, n, coupling, search);
         if b.stable == 0.0 {
@@ -67,8 +89,10 @@ fn brackets(case: &Case, n: usize, search: Search) -> [Bracket; 2] {
             b = largest_stable_dt(case, n, coupling, lower);
         }
         eprintln!(
-            "  {:<20} {coupling:?}: stable {:.3e}, unstable {:.3e} ({}: {}) [{:.0} s]",
+            "  {:<20} {:?}/{:?}: stable {:.3e}, unstable {:.3e} ({}: {}) [{:.0} s]",
             case.name,
+            coupling.membrane,
+            coupling.bending,
             b.stable,
             b.unstable,
             b.why.0,
@@ -96,7 +120,7 @@ fn all_cases(n: usize, t_end: f64, only: Option<String>, out: &Path) -> Res {
     )?;
     let search = Search { t_end, min_steps: 50, lo: 2.5e-3, hi: 6.4e-2, iters: 5 };
     for case in cases().into_iter().filter(|c| only.as_ref().is_none_or(|o| o == c.name)) {
-        let [q, e] = brackets(&case, n, search);
+        let [q, e] = brackets(&case, n, search, IN_PLANE);
         let ratio = q.stable / e.stable;
         let s = &q.at_stable;
         csv.row(&[
@@ -171,7 +195,8 @@ fn sweep(n: usize, only: Option<String>, out: &Path) -> Res {
         let mu_mean = 0.5 * mu * (1.0 + lambda);
         let scale = if e_b > 0.0 { mu_mean * h.powi(3) / e_b } else { mu_mean * h / e_s };
         let search = Search { t_end: 0.2, min_steps: 60, lo: scale / 4.0, hi: 1024.0 * scale, iters: 6 };
-        let [q, e] = brackets(&case, cells, search);
+        // In-plane points compare the in-plane couplings, bending points the bending ones.
+        let [q, e] = brackets(&case, cells, search, if e_b > 0.0 { BENDING } else { IN_PLANE });
         csv.row(&[e_s, h, mu, lambda, e_b, q.stable, e.stable, q.stable / e.stable])?;
         result(&[
             ("case", if e_b > 0.0 { "sweep_bending" } else { "sweep" }.to_string()),

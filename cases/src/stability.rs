@@ -7,12 +7,29 @@ use eulermembrane::Error;
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::{MembraneCoupling, Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{BendingCoupling, MembraneCoupling, Phase, Scene, Settings, Simulation};
 
 /// Outer density and viscosity (Re = rho a^2 / mu = 0.01, as in Sec. 3.3).
 pub const RHO: f64 = 1.0;
 /// Outer viscosity.
 pub const MU: f64 = 100.0;
+
+/// How the membrane forces of a run enter the predictor: the in-plane stress's coupling and the
+/// bending force's (the rest of the settings are the defaults).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coupling {
+    /// The in-plane stress ([`Settings::coupling`]).
+    pub membrane: MembraneCoupling,
+    /// The bending force ([`Settings::bending_coupling`]).
+    pub bending: BendingCoupling,
+}
+
+impl From<MembraneCoupling> for Coupling {
+    /// The in-plane coupling `membrane` with the default bending coupling.
+    fn from(membrane: MembraneCoupling) -> Self {
+        Coupling { membrane, bending: BendingCoupling::default() }
+    }
+}
 
 /// One scene of the suite.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -78,7 +95,8 @@ pub fn cases() -> Vec<Case> {
 /// Builds `case` with `n` cells along x of the 4-wide box (`h = 4 / n`; the pair box is 6 wide,
 /// `1.5 n` cells; the near-wall case uses `h = 4 / (1.5 n)`), with the given membrane coupling,
 /// in the linear shear flow `u = G z`.
-pub fn build(case: &Case, n: usize, coupling: MembraneCoupling) -> eulermembrane::Result<Simulation<f64>> {
+pub fn build(case: &Case, n: usize, coupling: impl Into<Coupling>) -> eulermembrane::Result<Simulation<f64>> {
+    let coupling = coupling.into();
     let (h, (lx, ly, lz)) = match case.layout {
         Layout::Centre => (4.0 / n as f64, (4.0, 3.0, 5.0)),
         Layout::NearWall => (4.0 / (1.5 * n as f64), (4.0, 3.0, 4.0)),
@@ -90,7 +108,8 @@ pub fn build(case: &Case, n: usize, coupling: MembraneCoupling) -> eulermembrane
     let u = case.shear * half[2];
     bc[2] = [Boundary::Wall { velocity: [-u, 0.0, 0.0] }, Boundary::Wall { velocity: [u, 0.0, 0.0] }];
     let grid = Grid::new([cells(lx), cells(ly), cells(lz)], half.map(|x| -x), half, bc)?;
-    let settings = Settings { coupling, ..Settings::default() };
+    let settings =
+        Settings { coupling: coupling.membrane, bending_coupling: coupling.bending, ..Settings::default() };
     let mut scene = Scene::new(grid, Phase::new(RHO, case.mu)?)
         .inside(Phase::new(RHO, case.mu * case.lambda)?)
         .elasticity(NeoHookean::new(case.e_s())?)
@@ -236,7 +255,8 @@ pub struct Bracket {
 }
 
 /// The largest stable `dt` of `case` at `n` cells with `coupling` (see [`Search`]).
-pub fn largest_stable_dt(case: &Case, n: usize, coupling: MembraneCoupling, search: Search) -> Bracket {
+pub fn largest_stable_dt(case: &Case, n: usize, coupling: impl Into<Coupling>, search: Search) -> Bracket {
+    let coupling = coupling.into();
     let attempt = |dt: f64| {
         let steps = ((search.t_end / dt).ceil() as usize).max(search.min_steps);
         let mut sim = build(case, n, coupling).expect("scene");

@@ -110,6 +110,69 @@ pub fn mean_curvature_at<T: Real>(grid: &Grid<T>, normal: &[Field<T>; 3], idx: u
     T::lit(0.5) * (k[0][0] + k[1][1] + k[2][2])
 }
 
+/// `q̃ = (∇·m̃)·P` at cell `idx` (central differences), with `m̃` at cell centres given by `mt`
+/// (zero off the band) and `P` from the unit normal.
+#[inline]
+pub(crate) fn shear_tension_at<T: Real>(
+    grid: &Grid<T>,
+    normal: &[Field<T>; 3],
+    idx: usize,
+    mt: impl Fn(usize) -> Mat3<T>,
+) -> Vec3<T> {
+    let st = grid.strides();
+    let h = grid.h();
+    let mut div = [T::zero(); 3];
+    for k in 0..3 {
+        let (up, dn) = (mt(idx + st[k]), mt(idx - st[k]));
+        let ih2 = T::lit(0.5) / h[k];
+        for l in 0..3 {
+            div[l] += (up[k][l] - dn[k][l]) * ih2;
+        }
+    }
+    let p = sym_to_mat(&projector(&cell_vector(normal, idx)));
+    std::array::from_fn(|j| div[0] * p[0][j] + div[1] * p[1][j] + div[2] * p[2][j])
+}
+
+/// Steps 2 and 3 of the [module docs](self): from `m̃` per band cell, `q̃` on `halo(1)` into `q`
+/// and the face force `∇·(q̃ n_out)` on the faces of `halo(2)` into `f`, with the outward normal
+/// `n_out = −n` (see "The sign of the force").
+pub(crate) fn face_force_of_moment<T: Real>(
+    grid: &Grid<T>,
+    band: &Band<T>,
+    normal: &[Field<T>; 3],
+    m: &[Mat3<T>],
+    q: &mut Vec<Vec3<T>>,
+    f: &mut Vec<[T; 3]>,
+) {
+    let zero3 = [[T::zero(); 3]; 3];
+    let mt = |p: usize| match band.position_in(p, 0) {
+        Some(b) => m[b],
+        None => zero3,
+    };
+    let cells1 = band.halo(1);
+    q.resize(cells1.len(), [T::zero(); 3]);
+    q.par_iter_mut()
+        .zip(cells1.par_iter())
+        .with_min_len(MIN_CELLS_PER_TASK)
+        .for_each(|(qo, &idx)| *qo = shear_tension_at(grid, normal, idx, mt));
+    let q = &*q;
+    // (q̃, n_out) at a cell, zero off halo(1); Q_ac = q̃_a (n_out)_c.
+    let qn = |p: usize| match band.position_in(p, 1) {
+        Some(b) => (q[b], cell_vector(normal, p).map(|x| -x)),
+        None => ([T::zero(); 3], [T::zero(); 3]),
+    };
+    let comp = |v: &(Vec3<T>, Vec3<T>), a: usize, c: usize| v.0[a] * v.1[c];
+    let st = grid.strides();
+    let h = grid.h();
+    let ih: [T; 3] = std::array::from_fn(|d| T::one() / h[d]);
+    let cells2 = band.halo(2);
+    f.resize(cells2.len(), [T::zero(); 3]);
+    f.par_iter_mut()
+        .zip(cells2.par_iter())
+        .with_min_len(MIN_CELLS_PER_TASK)
+        .for_each(|(fo, &idx)| *fo = face_divergence3(&st, &ih, idx, qn, comp));
+}
+
 /// The bending of the membrane: `m̃`, `q̃` and the face force `∇·(q̃ n)` on a band (see the
 /// [module docs](self)).
 #[derive(Debug, Clone)]
@@ -211,10 +274,7 @@ impl<T: Real> BendingStress<T> {
                 "a field of the band's grid",
             ));
         }
-        let st = grid.strides();
-        let h = grid.h();
         let eb = self.eb;
-        let nrm = |idx: usize| cell_vector(normal, idx);
 
         // 1. m̃ on the band.
         let band_cells = band.cells();
@@ -222,53 +282,14 @@ impl<T: Real> BendingStress<T> {
         self.m.par_iter_mut().zip(band_cells.par_iter()).with_min_len(MIN_CELLS_PER_TASK).for_each(
             |(mo, &idx)| {
                 let kappa = curvature_tensor_at(grid, normal, idx);
-                let p = sym_to_mat(&projector(&nrm(idx)));
+                let p = sym_to_mat(&projector(&cell_vector(normal, idx)));
                 let (d, kr) = (delta.data[idx], kappa_r_tilde.data[idx]);
                 *mo = std::array::from_fn(|i| std::array::from_fn(|j| eb * (d * kappa[i][j] - kr * p[i][j])));
             },
         );
 
-        // 2. q̃ = (∇·m̃)·P on halo(1).
-        let m = &self.m;
-        let zero3 = [[T::zero(); 3]; 3];
-        let mt = |p: usize| match band.position_in(p, 0) {
-            Some(b) => m[b],
-            None => zero3,
-        };
-        let ih2: [T; 3] = std::array::from_fn(|d| T::lit(0.5) / h[d]);
-        let cells1 = band.halo(1);
-        self.q.resize(cells1.len(), [T::zero(); 3]);
-        self.q.par_iter_mut().zip(cells1.par_iter()).with_min_len(MIN_CELLS_PER_TASK).for_each(
-            |(qo, &idx)| {
-                let mut div = [T::zero(); 3];
-                for k in 0..3 {
-                    let (up, dn) = (mt(idx + st[k]), mt(idx - st[k]));
-                    for l in 0..3 {
-                        div[l] += (up[k][l] - dn[k][l]) * ih2[k];
-                    }
-                }
-                let p = sym_to_mat(&projector(&nrm(idx)));
-                *qo = std::array::from_fn(|j| div[0] * p[0][j] + div[1] * p[1][j] + div[2] * p[2][j]);
-            },
-        );
-
-        // 3. ∇·(q̃ n_out) on the faces of halo(2), with the outward normal n_out = −n (see
-        // "The sign of the force" in the module docs).
-        let q = &self.q;
-        // (q̃, n_out) at a cell, zero off halo(1); Q_ac = q̃_a (n_out)_c.
-        let qn = |p: usize| match band.position_in(p, 1) {
-            Some(b) => (q[b], nrm(p).map(|x| -x)),
-            None => ([T::zero(); 3], [T::zero(); 3]),
-        };
-        let comp = |v: &(Vec3<T>, Vec3<T>), a: usize, c: usize| v.0[a] * v.1[c];
-        let ih: [T; 3] = std::array::from_fn(|d| T::one() / h[d]);
-        let cells2 = band.halo(2);
-        self.f.resize(cells2.len(), [T::zero(); 3]);
-        self.f.par_iter_mut().zip(cells2.par_iter()).with_min_len(MIN_CELLS_PER_TASK).for_each(
-            |(fo, &idx)| {
-                *fo = face_divergence3(&st, &ih, idx, qn, comp);
-            },
-        );
+        // 2.-3. q̃ on halo(1), the face force on halo(2).
+        face_force_of_moment(grid, band, normal, &self.m, &mut self.q, &mut self.f);
         self.finish(band, 2)
     }
 

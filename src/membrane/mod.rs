@@ -24,6 +24,8 @@
 //!   ([`Forcing`](crate::fluid::Forcing)) and quasi-implicit
 //!   ([`ImplicitTerm`](crate::fluid::ImplicitTerm)) parts of (2.35);
 //! - [`bending`]: the modified bending stress (2.16)-(2.17) and its force;
+//! - [`bending_implicit`]: the stiff part of the bending force linearised in the velocity, for
+//!   the predictor (semi-implicit bending);
 //! - [`strain`]: transport of `G_s` (2.40) with third-order upwind fluxes, AB2, and the re-set to
 //!   `P` outside the band.
 //!
@@ -35,6 +37,7 @@
 pub mod band;
 pub mod bending;
 mod bending_energy;
+pub mod bending_implicit;
 pub mod force;
 pub mod law;
 pub mod loading;
@@ -43,6 +46,7 @@ pub mod stress;
 
 pub use band::{Band, MAX_HALO};
 pub use bending::{BendingForcing, BendingForm, BendingStress, curvature_tensor_at, mean_curvature_at};
+pub use bending_implicit::{BendingImplicit, BendingImplicitTerm};
 pub use force::{InPlaneElasticity, InPlaneForcing, InPlaneImplicit};
 pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
 pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};

@@ -4,7 +4,7 @@
 //! named with `only` (a mixed suspension: stiff and soft capsules, red cells with another law).
 
 use super::effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
-use super::scene::MembraneCoupling;
+use super::scene::{BendingCoupling, MembraneCoupling};
 use super::stability::{bending_dt_limit, membrane_dt_limit};
 use crate::error::positive;
 use crate::fluid::{BodyForce, Forcing, ImplicitTerm};
@@ -13,7 +13,9 @@ use crate::grid::{Grid, SymField, VectorField};
 use crate::interface::NormalScheme;
 use crate::membrane::law::check_stress_free;
 use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
-use crate::membrane::{BendingForm, BendingStress, InPlaneElasticity, SurfaceLaw, small_strain_moduli};
+use crate::membrane::{
+    BendingForm, BendingImplicit, BendingStress, InPlaneElasticity, SurfaceLaw, small_strain_moduli,
+};
 use crate::{Error, Real, Result};
 use std::sync::Arc;
 
@@ -62,6 +64,37 @@ pub(crate) fn reference_integral<T: Real>(
         }
     }
     s * grid.cell_volume().f64()
+}
+
+/// Adds the implicit term `term(work, membrane)` of each capsule `(c, work)` of `capsules` to
+/// `y = P x` (a membrane effect's [`Effect::add_implicit`]).
+fn add_implicit_terms<'s, 'w, T: Real, W: 'w, I: ImplicitTerm<T>>(
+    state: &StepState<'s, T>,
+    capsules: impl Iterator<Item = (usize, &'w W)>,
+    term: impl Fn(&'w W, MembraneView<'s, T>) -> Result<I>,
+    x: &VectorField<T>,
+    y: &mut VectorField<T>,
+) -> Result<()> {
+    for (c, w) in capsules {
+        term(w, state.membrane(c)?)?.add_apply(state.grid, x, y)?;
+    }
+    Ok(())
+}
+
+/// The sum of the same terms at face `idx` of component `comp` ([`Effect::implicit_at`], for
+/// SOR). A capsule whose term cannot be built, which [`add_implicit_terms`] reports, adds
+/// nothing.
+fn implicit_terms_at<'s, 'w, T: Real, W: 'w, I: ImplicitTerm<T>>(
+    state: &StepState<'s, T>,
+    capsules: impl Iterator<Item = (usize, &'w W)>,
+    term: impl Fn(&'w W, MembraneView<'s, T>) -> Result<I>,
+    x: &VectorField<T>,
+    comp: usize,
+    idx: usize,
+) -> T {
+    capsules
+        .filter_map(|(c, w)| term(w, state.membrane(c).ok()?).ok())
+        .fold(T::zero(), |s, t| s + t.apply_at(state.grid, x, comp, idx))
 }
 
 /// The capsules a membrane effect acts on and, once attached, its work state `W` on each of
@@ -234,24 +267,13 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         if self.coupling != MembraneCoupling::QuasiImplicit {
             return Ok(());
         }
-        for (c, e) in self.at.iter() {
-            e.implicit(state.membrane(c)?.band)?.add_apply(state.grid, x, y)?;
-        }
-        Ok(())
+        add_implicit_terms(state, self.at.iter(), |e, m| e.implicit(m.band), x, y)
     }
     fn implicit_at(&self, state: &StepState<'_, T>, x: &VectorField<T>, comp: usize, idx: usize) -> T {
         if self.coupling != MembraneCoupling::QuasiImplicit {
             return T::zero();
         }
-        let mut s = T::zero();
-        for (c, e) in self.at.iter() {
-            // `add_implicit` reports a band mismatch; here such a capsule adds nothing.
-            let Ok(m) = state.membrane(c) else { continue };
-            if let Ok(t) = e.implicit(m.band) {
-                s += t.apply_at(state.grid, x, comp, idx);
-            }
-        }
-        s
+        implicit_terms_at(state, self.at.iter(), |e, m| e.implicit(m.band), x, comp, idx)
     }
     fn stored_energy(&self, state: &StepState<'_, T>) -> f64 {
         let energy = |k: &SurfaceKinematics<T>| self.law.energy(k.c1, k.c2);
@@ -277,6 +299,8 @@ pub struct Bending<T: Real> {
     at: PerCapsule<BendingStress<T>>,
     form: BendingForm,
     atanh4: bool,
+    /// The semi-implicit part ([`BendingCoupling::SemiImplicit`]), shared by the capsules.
+    implicit: Option<BendingImplicit<T>>,
 }
 
 impl<T: Real> Bending<T> {
@@ -286,7 +310,7 @@ impl<T: Real> Bending<T> {
     /// [`Error::InvalidParameter`] naming `eb` unless it is finite and `> 0`.
     pub fn new(eb: T) -> Result<Self> {
         positive("eb", eb)?;
-        Ok(Bending { eb, at: PerCapsule::all(), form: BendingForm::default(), atanh4: false })
+        Ok(Bending { eb, at: PerCapsule::all(), form: BendingForm::default(), atanh4: false, implicit: None })
     }
 
     /// The same bending on the capsules with these indices only.
@@ -332,12 +356,29 @@ impl<T: Real> Effect<T> for Bending<T> {
         }
         self.form = s.bending_form;
         self.atanh4 = s.normals == NormalScheme::Atanh4;
+        self.implicit = match s.bending_coupling {
+            BendingCoupling::Explicit => None,
+            BendingCoupling::SemiImplicit { alpha } => {
+                if !(0.5..=1.0).contains(&alpha) {
+                    return Err(Error::invalid(
+                        "bending_coupling",
+                        format!("SemiImplicit {{ alpha: {alpha} }}"),
+                        "alpha in [0.5, 1]",
+                    ));
+                }
+                Some(BendingImplicit::new(setup.grid, eb, T::lit(alpha))?)
+            }
+        };
         Ok(())
     }
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
-        bending_dt_limit(setup.mean_viscosity(), setup.min_spacing(), self.eb.f64()).ok()
+        let coupling = setup.settings.bending_coupling;
+        bending_dt_limit(setup.mean_viscosity(), setup.min_spacing(), self.eb.f64(), coupling).ok()
     }
-    fn prepare(&mut self, state: &StepState<'_, T>, _: &VectorField<T>, _: T) -> Result<()> {
+    fn prepare(&mut self, state: &StepState<'_, T>, _: &VectorField<T>, dt: T) -> Result<()> {
+        if let Some(imp) = &mut self.implicit {
+            imp.set_dt(dt)?;
+        }
         for (c, b) in self.at.iter_mut() {
             let m = state.membrane(c)?;
             let kappa = m.curvature.ok_or_else(|| missing_field("bending", "kappa_R tilde", c))?;
@@ -366,6 +407,22 @@ impl<T: Real> Effect<T> for Bending<T> {
             }
         }
         Ok(())
+    }
+    fn has_implicit(&self, _: &StepState<'_, T>) -> bool {
+        self.implicit.is_some()
+    }
+    fn add_implicit(
+        &self,
+        state: &StepState<'_, T>,
+        x: &VectorField<T>,
+        y: &mut VectorField<T>,
+    ) -> Result<()> {
+        let Some(imp) = &self.implicit else { return Ok(()) };
+        add_implicit_terms(state, self.at.iter(), |_, m| imp.term(m.band, m.normal, m.delta), x, y)
+    }
+    fn implicit_at(&self, state: &StepState<'_, T>, x: &VectorField<T>, comp: usize, idx: usize) -> T {
+        let Some(imp) = &self.implicit else { return T::zero() };
+        implicit_terms_at(state, self.at.iter(), |_, m| imp.term(m.band, m.normal, m.delta), x, comp, idx)
     }
 }
 

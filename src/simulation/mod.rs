@@ -71,7 +71,9 @@ pub mod timestep;
 pub use effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
 pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
 pub use observer::{Observer, RunSummary};
-pub use scene::{GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings, TransportMaker};
+pub use scene::{
+    BendingCoupling, GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings, TransportMaker,
+};
 pub use timestep::{AdaptiveDt, FixedDt, TimeStepping};
 
 use crate::diagnostics::{

@@ -72,6 +72,31 @@ pub struct Settings<T> {
     /// bending energy with the same moment (its power balances the energy; a slightly different
     /// continuum model, see its docs). It needs `normals` `Atanh2` or `Atanh4`. Not in the paper.
     pub bending_form: BendingForm,
+    /// How the bending force enters the predictor. Default [`BendingCoupling::SemiImplicit`]
+    /// with `alpha = 1`; [`BendingCoupling::Explicit`] is the paper's.
+    pub bending_coupling: BendingCoupling,
+}
+
+/// How the bending force enters the momentum predictor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BendingCoupling {
+    /// The force of the shape at the start of the step (the paper's): stable for
+    /// `dt <= C_BENDING mu h^3 / E_b` ([`crate::simulation::stability`]).
+    Explicit,
+    /// The force's stiff part linearised in the velocity and taken `alpha` of the way along the
+    /// step, inside the predictor ([`BendingImplicit`](crate::membrane::BendingImplicit);
+    /// `alpha` in `[0.5, 1]`: 0.5 is second order and leaves the shortest waves undamped, 1
+    /// damps them most). Not in the paper.
+    SemiImplicit {
+        /// The weight `alpha` of the step.
+        alpha: f64,
+    },
+}
+
+impl Default for BendingCoupling {
+    fn default() -> Self {
+        BendingCoupling::SemiImplicit { alpha: 1.0 }
+    }
 }
 
 /// How the in-plane membrane stress enters the momentum predictor.
@@ -178,6 +203,7 @@ impl<T: Real> Default for Settings<T> {
             reference_area: ReferenceArea::default(),
             strain_advection: StrainAdvection::default(),
             bending_form: BendingForm::Divergence,
+            bending_coupling: BendingCoupling::default(),
         }
     }
 }
