@@ -42,7 +42,7 @@ fn shear_step(c: &mut Criterion<CpuTime>) {
         .sampling_mode(SamplingMode::Flat)
         .sample_size(10)
         .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(10));
+        .measurement_time(Duration::from_secs(12));
     group.bench_function("n128_ca0.05", |b| b.iter(|| sim.step(dt).expect("step")));
     group.finish();
 }

@@ -953,6 +953,51 @@ mod tests {
         }
     }
 
+    /// `Predictor::viscous` sets the weight of the viscous term: `P x = rho/dt x - theta V x`
+    /// is affine in `theta`, so `P_{3/4} x` is the mean of `P_{1/2} x` (Crank–Nicolson, the
+    /// default of `new`) and `P_1 x`, and the two ends differ by `V x / 2`.
+    #[test]
+    fn viscous_scheme_sets_the_weight() {
+        use super::super::ViscousScheme;
+        let g = Grid::<f64>::new([6, 5, 7], [0.0; 3], [1.0, 0.8, 1.1], Boundary::walls_on(Some(2))).unwrap();
+        let mut x =
+            VectorField::from_fn(&g, |p| [(3.0 * p[1]).sin() + p[2], p[0] * p[2], (2.0 * p[0]).cos()]);
+        x.fill_ghosts(&g);
+        let m = Materials::uniform(1.2, 0.3).unwrap();
+        let apply = |scheme: Option<ViscousScheme>| {
+            let op = Predictor::new(&g, 0.05, &m, None);
+            let op = match scheme {
+                Some(s) => op.viscous(s),
+                None => op,
+            };
+            let mut y = VectorField::zeros(&g);
+            op.apply_raw(&x, &mut y).unwrap();
+            y
+        };
+        let (cn, half, three, one) = (
+            apply(None),
+            apply(Some(ViscousScheme::CrankNicolson)),
+            apply(Some(ViscousScheme::Theta(0.75))),
+            apply(Some(ViscousScheme::Theta(1.0))),
+        );
+        let mut spread = 0.0f64;
+        for d in 0..3 {
+            for (i, j, k) in g.cells() {
+                let id = g.idx_u(i, j, k);
+                let (a, b, c, e) =
+                    (cn.c[d].data[id], half.c[d].data[id], three.c[d].data[id], one.c[d].data[id]);
+                assert_eq!(a, b);
+                assert!(
+                    (c - 0.5 * (b + e)).abs() < 1e-12 * (1.0 + c.abs()),
+                    "{d} {:?}: {b} {c} {e}",
+                    (i, j, k)
+                );
+                spread = spread.max((e - b).abs());
+            }
+        }
+        assert!(spread > 1e-3, "theta changed nothing: {spread}");
+    }
+
     /// The preconditioner pairs components of equal closures (two solves per application in
     /// a periodic box and with a wall) and gives what one solve per component gives, to
     /// round-off.

@@ -21,10 +21,18 @@
 //! ```
 //!
 //! the force at the shape `α` of the way along the step that `v*` drives (`α = 1/2`: the
-//! midpoint, second order; a short wave is then damped by `(1 − (1 − α) r)/(1 + α r)` per step,
-//! `r = Δt E_b k³/mu`, stable for every `dt` when `α >= 1/2` and damped when `α > 1/2`). The
-//! predictor takes `−α Δt L(v*)` into its operator, like the in-plane term of (2.35); the
-//! curvature's lower-order terms and the motion of `δ` and `P` stay explicit.
+//! midpoint, second order). In a model of one short wave (`r = Δt E_b k³/mu`) the amplitude
+//! changes by `(1 − (1 − α) r)/(1 + α r)` per step: bounded for every `dt` when `α >= 1/2`,
+//! damped towards 0 when `α = 1`. The predictor takes `−α Δt L(v*)` into its operator, like the
+//! in-plane term of (2.35); the curvature's lower-order terms and the motion of `δ` and `P` stay
+//! explicit.
+//!
+//! Measured on the bending shear case (`E_b' = 0.0375`, `Ca = 0.05`, N = 64, the adaptive step
+//! 0.0095, 25 times the largest stable explicit step): with `α = 1` `D(t)` stays within 1.6 % of
+//! the explicit run at `dt = 3.75e-4` up to `t = 1` (0.01 % at `t = 1`); with `α = 0.5` and
+//! `0.6` it departs by up to 51 % and 37 % (the short waves, undamped or barely damped, grow
+//! through the explicit parts). Hence `α = 1`, the default of
+//! [`BendingCoupling::SemiImplicit`](crate::simulation::BendingCoupling::SemiImplicit).
 //!
 //! # Discretisation
 //!
