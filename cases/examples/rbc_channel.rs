@@ -39,7 +39,9 @@
 //! Flags: `--n` (32; the paper uses 64, 128 for `many`), `--dt`, `--t-end`, `--alpha LIST`,
 //! `--case`, `--cells`, `--bending-form divergence|energy` (`Settings::bending_form`, default
 //! the paper's `divergence`), `--gs-transport paper|tangential|frame|both`
-//! (`Settings::gs_transport`, default `paper`),
+//! (`Settings::gs_transport`, default `paper`), `--bending-coupling semi-implicit|explicit`
+//! (`Settings::bending_coupling`, default semi-implicit; the paper's and the figures of
+//! `docs/validation/red_cells.md` are explicit; `--bending-alpha`, 1),
 //! `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
 //! Long runs (`two1`, `two2`): `--progress-every T` prints a progress line every `T` time units
@@ -61,7 +63,7 @@ use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{BendingForm, Skalak};
-use eulermembrane::simulation::{GsTransport, Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{BendingCoupling, GsTransport, Phase, Scene, Settings, Simulation};
 use eulermembrane_cases::csv::{CsvWriter, read_columns, write_columns};
 use eulermembrane_cases::plot::{Figure, LineStyle, contour_segments};
 use std::path::{Path, PathBuf};
@@ -86,12 +88,15 @@ struct Params {
     numerics: Numerics,
 }
 
-/// The numerical options a run may change (`--bending-form`, `--gs-transport`):
-/// [`Settings::bending_form`] and [`Settings::gs_transport`]; the paper's scheme by default.
+/// The numerical options a run may change (`--bending-form`, `--gs-transport`,
+/// `--bending-coupling`): [`Settings::bending_form`], [`Settings::gs_transport`] and
+/// [`Settings::bending_coupling`]; the paper's scheme by default, but for the library's
+/// semi-implicit bending.
 #[derive(Clone, Copy)]
 struct Numerics {
     bend: BendingForm,
     gs_transport: GsTransport,
+    bending_coupling: BendingCoupling,
 }
 
 const PAPER: Params = Params {
@@ -102,7 +107,11 @@ const PAPER: Params = Params {
     alpha: 40.0,
     radius: 0.17,
     wall_axis: 1,
-    numerics: Numerics { bend: BendingForm::Divergence, gs_transport: GsTransport::Paper },
+    numerics: Numerics {
+        bend: BendingForm::Divergence,
+        gs_transport: GsTransport::Paper,
+        bending_coupling: BendingCoupling::SemiImplicit { alpha: 1.0 },
+    },
 };
 
 fn run() -> BoxResult<()> {
@@ -115,6 +124,7 @@ fn run() -> BoxResult<()> {
     let numerics = Numerics {
         bend: BendingForm::from_name(&form)?,
         gs_transport: GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?,
+        bending_coupling: args.bending_coupling()?,
     };
     match case.as_str() {
         "single" => {
@@ -158,6 +168,7 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
         .settings(Settings {
             bending_form: p.numerics.bend,
             gs_transport: p.numerics.gs_transport,
+            bending_coupling: p.numerics.bending_coupling,
             ..Settings::default()
         })
         .build()

@@ -139,11 +139,7 @@ fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResu
     }
     let form = BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
     let transport = GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?;
-    let bending = match args.get("bending-coupling", "semi-implicit".to_string()).as_str() {
-        "explicit" => BendingCoupling::Explicit,
-        "semi-implicit" => BendingCoupling::SemiImplicit { alpha: args.get("bending-alpha", 1.0) },
-        other => return Err(format!("--bending-coupling {other}: explicit or semi-implicit").into()),
-    };
+    let bending = args.bending_coupling()?;
     if args.flag("f32") {
         shear::run::<f32>(case, settings(args, form, transport, bending), 0.05, vtk, false)
     } else {

@@ -125,6 +125,20 @@ impl Args {
         self.raw(key).is_some()
     }
 
+    /// `Settings::bending_coupling` from `--bending-coupling semi-implicit|explicit` (default
+    /// semi-implicit, the library's) and `--bending-alpha` (1).
+    ///
+    /// # Errors
+    /// Any other coupling name.
+    pub fn bending_coupling(&self) -> BoxResult<eulermembrane::simulation::BendingCoupling> {
+        use eulermembrane::simulation::BendingCoupling;
+        match self.get("bending-coupling", "semi-implicit".to_string()).as_str() {
+            "explicit" => Ok(BendingCoupling::Explicit),
+            "semi-implicit" => Ok(BendingCoupling::SemiImplicit { alpha: self.get("bending-alpha", 1.0) }),
+            other => Err(format!("--bending-coupling {other}: explicit or semi-implicit").into()),
+        }
+    }
+
     /// The output folder (`--out`, default `out/<name>`), created.
     pub fn out_dir(&self, name: &str) -> PathBuf {
         let dir = PathBuf::from(self.raw("out").cloned().unwrap_or_else(|| format!("out/{name}")));
