@@ -42,21 +42,18 @@ fn main() {
     common::exit_on_error(start());
 }
 
+/// The default bending coupling (`BendingCoupling::default()`, which a `const` cannot call).
+const SEMI_IMPLICIT: BendingCoupling = BendingCoupling::SemiImplicit { alpha: 1.0 };
+
 /// The in-plane couplings compared: quasi-implicit, then explicit (default bending).
 const IN_PLANE: [Coupling; 2] = [
-    Coupling {
-        membrane: MembraneCoupling::QuasiImplicit,
-        bending: BendingCoupling::SemiImplicit { alpha: 1.0 },
-    },
-    Coupling { membrane: MembraneCoupling::Explicit, bending: BendingCoupling::SemiImplicit { alpha: 1.0 } },
+    Coupling { membrane: MembraneCoupling::QuasiImplicit, bending: SEMI_IMPLICIT },
+    Coupling { membrane: MembraneCoupling::Explicit, bending: SEMI_IMPLICIT },
 ];
 
 /// The bending couplings compared: semi-implicit, then explicit (quasi-implicit in-plane).
 const BENDING: [Coupling; 2] = [
-    Coupling {
-        membrane: MembraneCoupling::QuasiImplicit,
-        bending: BendingCoupling::SemiImplicit { alpha: 1.0 },
-    },
+    Coupling { membrane: MembraneCoupling::QuasiImplicit, bending: SEMI_IMPLICIT },
     Coupling { membrane: MembraneCoupling::QuasiImplicit, bending: BendingCoupling::Explicit },
 ];
 

@@ -87,12 +87,13 @@ impl<T: Real> BendingImplicit<T> {
     /// the step. Nothing is allocated until the first application.
     ///
     /// # Errors
-    /// [`Error::InvalidParameter`] naming `eb` unless finite and `> 0`, or `alpha` unless in
-    /// `[1/2, 1]`.
+    /// [`Error::InvalidParameter`] naming `eb` unless finite and `> 0`, or `bending alpha` (the
+    /// `alpha` of [`BendingCoupling::SemiImplicit`](crate::simulation::BendingCoupling)) unless
+    /// in `[1/2, 1]`.
     pub fn new(grid: &Grid<T>, eb: T, alpha: T) -> Result<Self> {
         positive("eb", eb)?;
         if !(alpha >= T::lit(0.5) && alpha <= T::one()) {
-            return Err(Error::invalid("alpha", alpha, "a weight in [0.5, 1]"));
+            return Err(Error::invalid("bending alpha", alpha, "a weight in [0.5, 1]"));
         }
         Ok(BendingImplicit { eb, alpha, weight: T::zero(), grid: grid.clone(), work: Mutex::default() })
     }

@@ -359,13 +359,6 @@ impl<T: Real> Effect<T> for Bending<T> {
         self.implicit = match s.bending_coupling {
             BendingCoupling::Explicit => None,
             BendingCoupling::SemiImplicit { alpha } => {
-                if !(0.5..=1.0).contains(&alpha) {
-                    return Err(Error::invalid(
-                        "bending_coupling",
-                        format!("SemiImplicit {{ alpha: {alpha} }}"),
-                        "alpha in [0.5, 1]",
-                    ));
-                }
                 Some(BendingImplicit::new(setup.grid, eb, T::lit(alpha))?)
             }
         };
