@@ -23,6 +23,6 @@ pub use crate::membrane::{NeoHookean, Skalak, SurfaceLaw};
 pub use crate::simulation::observer::{Checkpoints, Observer, Progress, VtkSeries};
 pub use crate::simulation::{
     Bending, BendingCoupling, Effect, Elasticity, GsTransport, MembraneCoupling, Phase, Scene, Settings,
-    Simulation, StepReport, StepState, StepWarning, SurfaceLoad,
+    Simulation, StepReport, StepState, StepWarning, SurfaceLoad, Traction,
 };
 pub use crate::{Error, Real, Result};

@@ -12,7 +12,8 @@
 //! laws) and `pressure.svg`.
 //!
 //! Flags: `--n` (64: 16 cells per radius), `--lambda` (1.05), `--steps` (40), `--dt` (`h / 4`),
-//! `--out DIR` (`out/inflated_capsule`).
+//! `--coupling smoothed|sharp` (`Settings::traction`, smoothed), `--out DIR`
+//! (`out/inflated_capsule`).
 //!
 //! Run: `cargo run --release --example inflated_capsule`.
 
@@ -22,7 +23,7 @@ use common::{Args, BoxResult, num, result};
 use eulermembrane::grid::Grid;
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw, equibiaxial_tension};
-use eulermembrane::simulation::{Phase, Scene};
+use eulermembrane::simulation::{Phase, Scene, Settings, Traction};
 use eulermembrane_cases::csv::write_columns;
 use eulermembrane_cases::plot::Figure;
 use std::time::Instant;
@@ -51,8 +52,9 @@ fn run() -> BoxResult<()> {
         "inflated_capsule: {n}^3 cells ({} per radius), lambda = {lambda}, {steps} steps of dt = {dt:.3e}",
         n / 4
     );
-    let neo = simulate(NeoHookean::new(1.0)?, n, lambda, steps, dt, "neo_hookean")?;
-    let skalak = simulate(Skalak::new(1.0, 1.0)?, n, lambda, steps, dt, "skalak")?;
+    let traction = args.traction("smoothed")?;
+    let neo = simulate(NeoHookean::new(1.0)?, n, lambda, steps, dt, traction, "neo_hookean")?;
+    let skalak = simulate(Skalak::new(1.0, 1.0)?, n, lambda, steps, dt, traction, "skalak")?;
     let x: Vec<f64> = (0..n).map(|i| -2.0 + (i as f64 + 0.5) * h).collect();
     write_columns(
         out.join("pressure.csv"),
@@ -72,6 +74,7 @@ fn run() -> BoxResult<()> {
             ("laplace", num(o.laplace)),
             ("rel_err", num(o.jump / o.laplace - 1.0)),
             ("spurious", num(o.spurious)),
+            ("coupling", traction.name().to_string()),
         ]);
     }
     Ok(())
@@ -83,6 +86,7 @@ fn simulate(
     lambda: f64,
     steps: usize,
     dt: f64,
+    traction: Traction,
     name: &str,
 ) -> BoxResult<Outcome> {
     let grid = Grid::periodic([n; 3], [-2.0; 3], [2.0; 3])?;
@@ -91,6 +95,7 @@ fn simulate(
     let mut sim = Scene::new(grid, Phase::new(1.0, mu)?)
         .capsule(Sphere::new([0.0; 3], 1.0)?)
         .elasticity(law)
+        .settings(Settings { traction, ..Settings::default() })
         .build()?;
     sim.prestretch(0, lambda)?;
     let clock = Instant::now();

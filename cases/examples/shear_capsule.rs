@@ -31,6 +31,7 @@
 //! `--bending-form divergence|energy` (`Settings::bending_form`),
 //! `--bending-coupling semi-implicit|explicit` (`Settings::bending_coupling`, default
 //! semi-implicit; `--bending-alpha`, 1, its weight `alpha`),
+//! `--coupling smoothed|sharp` (`Settings::traction`, default `smoothed`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
 //! Run: `cargo run --release --example shear_capsule` (about 10 s on one core; `--n 64` for
@@ -42,7 +43,9 @@ use common::shear::{self, ShearCase, ShearOutcome, Steps};
 use common::{Args, BoxResult, num, reference_dir, result};
 use eulermembrane::fluid::ViscousScheme;
 use eulermembrane::membrane::BendingForm;
-use eulermembrane::simulation::{AdaptiveDt, BendingCoupling, GsTransport, ReferenceArea, Settings};
+use eulermembrane::simulation::{
+    AdaptiveDt, BendingCoupling, GsTransport, ReferenceArea, Settings, Traction,
+};
 use eulermembrane_cases::csv::{CsvWriter, read_xy};
 use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;
@@ -75,7 +78,7 @@ fn run() -> BoxResult<()> {
             let case = ShearCase { ca, ..base.clone() };
             eprintln!("shear_capsule: Ca = {ca}, N = {n}, {}, t_end = {}", steps_text(&case), case.t_end);
             let o = simulate(&args, &case, None)?;
-            let (d_ref, rel) = report(&case, &o, refdir.clone());
+            let (d_ref, rel) = report(&case, &o, refdir.clone(), args.traction("smoothed")?);
             csv.row(&[ca, n as f64, o.d_steady, o.angle_steady, d_ref, rel, o.wall_s])?;
             let t: Vec<f64> = o.samples.iter().map(|s| s.t).collect();
             fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), &format!("Ca = {ca}"));
@@ -108,7 +111,7 @@ fn run() -> BoxResult<()> {
     fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), "present (full Eulerian)");
     add_references(&mut fig, refdir.clone(), base.ca, base.eb_prime, false);
     fig.save(out.join("deformation.svg"))?;
-    report(&base, &o, refdir);
+    report(&base, &o, refdir, args.traction("smoothed")?);
     Ok(())
 }
 
@@ -127,11 +130,18 @@ fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResu
         bending_form: BendingForm,
         gs_transport: GsTransport,
         bending_coupling: BendingCoupling,
+        traction: Traction,
     ) -> Settings<T> {
         let reference_area =
             if args.flag("conserve-area") { ReferenceArea::Conserved } else { ReferenceArea::Transported };
-        let mut s =
-            Settings { gs_transport, reference_area, bending_form, bending_coupling, ..Settings::default() };
+        let mut s = Settings {
+            gs_transport,
+            reference_area,
+            bending_form,
+            bending_coupling,
+            traction,
+            ..Settings::default()
+        };
         let theta: f64 = args.get("viscous-theta", 0.6);
         s.flow.viscous =
             if theta == 0.5 { ViscousScheme::CrankNicolson } else { ViscousScheme::Theta(theta) };
@@ -140,10 +150,11 @@ fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResu
     let form = BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
     let transport = GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?;
     let bending = args.bending_coupling()?;
+    let traction = args.traction("smoothed")?;
     if args.flag("f32") {
-        shear::run::<f32>(case, settings(args, form, transport, bending), 0.05, vtk, false)
+        shear::run::<f32>(case, settings(args, form, transport, bending, traction), 0.05, vtk, false)
     } else {
-        shear::run::<f64>(case, settings(args, form, transport, bending), 0.05, vtk, false)
+        shear::run::<f64>(case, settings(args, form, transport, bending, traction), 0.05, vtk, false)
     }
 }
 
@@ -173,7 +184,12 @@ fn max_curve_err(case: &ShearCase, o: &ShearOutcome, given: Option<std::path::Pa
 
 /// Prints the RESULT line of a run; returns the reference `D` and the relative error (NaN
 /// where there is no reference).
-fn report(case: &ShearCase, o: &ShearOutcome, refdir: Option<std::path::PathBuf>) -> (f64, f64) {
+fn report(
+    case: &ShearCase,
+    o: &ShearOutcome,
+    refdir: Option<std::path::PathBuf>,
+    coupling: Traction,
+) -> (f64, f64) {
     let d_ref = if case.lambda == 1.0 {
         shear::reference_d(case.ca, case.eb_prime).unwrap_or(f64::NAN)
     } else {
@@ -197,6 +213,7 @@ fn report(case: &ShearCase, o: &ShearOutcome, refdir: Option<std::path::PathBuf>
         ("t_end", format!("{:.4}", o.t_end)),
         ("s0_ratio", num(o.s0_ratio)),
         ("max_curve_err", num(max_curve_err(case, o, refdir))),
+        ("coupling", coupling.name().to_string()),
     ]);
     (d_ref, rel)
 }

@@ -39,7 +39,8 @@
 //! 0.7: 4.50e-3 tangential, 1.21e-2 paper, 8.73e-3 frame, 1.61e-3 both), `--conserve-area`
 //! (`ReferenceArea::Conserved`), `--linear-load` (the load profile
 //! `clamp((z - 0.25) / R, -1, 1)` instead of `sgn(z - 0.25)`, a diagnostic),
-//! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--vtk-every S` (0.25, in
+//! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--coupling smoothed|sharp`
+//! (`Settings::traction`, smoothed), `--vtk-every S` (0.25, in
 //! time units; 0 for none), `--convergence`, `--max-n N` (128), `--out DIR`
 //! (`out/squashed_sphere`).
 //!
@@ -87,6 +88,7 @@ fn settings(args: &Args) -> Result<Settings<f64>, Box<dyn std::error::Error>> {
     settings.advection.beta = args.get("beta", settings.advection.beta);
     // The example's default is the projection (see the file docs); the library's is the paper's.
     settings.gs_transport = GsTransport::from_name(&args.get("gs-transport", "tangential".to_string()))?;
+    settings.traction = args.traction("smoothed")?;
     if args.flag("conserve-area") {
         settings.reference_area = ReferenceArea::Conserved;
     }
@@ -268,6 +270,7 @@ fn history(
     result(&[
         ("n", n.to_string()),
         ("gs_transport", settings.gs_transport.name().into()),
+        ("coupling", settings.traction.name().into()),
         ("energy_err", num(energy_err)),
         ("r20_ratio", num(r20_ratio)),
         ("volume_drift", num(max_drift)),
@@ -527,6 +530,7 @@ fn convergence(
     csv.flush()?;
     result(&[
         ("gs_transport", settings.gs_transport.name().into()),
+        ("coupling", settings.traction.name().into()),
         ("order_l1_phi", format!("{:.3}", orders[0][0])),
         ("order_l1_v", format!("{:.3}", orders[1][0])),
         ("order_l1_p", format!("{:.3}", orders[2][0])),

@@ -26,11 +26,12 @@
 //! capsules in shear (`docs/validation/shear_capsule.md`).
 //!
 //! Flags: `--n LIST` (24,32, about a minute; the table of `docs/validation/surface_mobility.md` is
-//! `--n 24,32,48,64`, about 6 minutes; cells per side, `a / h = N / 8`), `--beta B` (sharpness of the
+//! `--n 24,32,48,64`, about 6 minutes; cells per side, `a / h = N / 8`), `--coupling LIST`
+//! (`smoothed,sharp`: `Settings::traction` of each run), `--beta B` (sharpness of the
 //! `phi` profile, initial and advected; 1, the paper's), `--steps` (4000), `--out DIR`
 //! (`out/surface_mobility`: `mobility.csv`, `mobility.svg`).
-//! Prints `RESULT n=... cells_per_radius=... normal=... tangential=... tangential_normal=...
-//! wall_s=...` per N (each the ratio to the Stokes value).
+//! Prints `RESULT n=... cells_per_radius=... beta=... coupling=... normal=... tangential=...
+//! tangential_normal=... wall_s=...` per N and coupling (each the ratio to the Stokes value).
 //!
 //! Run: `cargo run --release --example surface_mobility`.
 
@@ -43,7 +44,7 @@ use eulermembrane::diagnostics::{
 };
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{Phase, Scene, Settings, Simulation, Traction};
 use eulermembrane_cases::csv::write_columns;
 use eulermembrane_cases::plot::Figure;
 use std::time::Instant;
@@ -56,9 +57,14 @@ fn main() {
 }
 
 /// The scene with the surface force `mode` (amplitude `g = 1`).
-fn scene(n: usize, beta: f64, mode: fn([f64; 3]) -> [f64; 3]) -> eulermembrane::Result<Simulation<f64>> {
+fn scene(
+    n: usize,
+    beta: f64,
+    traction: Traction,
+    mode: fn([f64; 3]) -> [f64; 3],
+) -> eulermembrane::Result<Simulation<f64>> {
     let grid = Grid::new([n; 3], [-HALF; 3], [HALF; 3], [[Boundary::Periodic; 2]; 3])?;
-    let mut settings = Settings::default();
+    let mut settings = Settings { traction, ..Settings::default() };
     settings.advection.beta = beta;
     settings.smoothing.beta = beta;
     Scene::new(grid, Phase::new(1.0, MU)?)
@@ -83,11 +89,13 @@ fn aitken(c: [f64; 3]) -> f64 {
 fn settle(
     n: usize,
     beta: f64,
+    traction: Traction,
     max_steps: usize,
     force: fn([f64; 3]) -> [f64; 3],
     modes: [fn([f64; 3]) -> [f64; 3]; 2],
 ) -> BoxResult<[f64; 2]> {
-    let mut sim = scene(n, beta, force)?;
+    let mut sim = scene(n, beta, traction, force)?;
+    let mut u = sim.velocity().clone();
     let h = 2.0 * HALF / n as f64;
     let dt = h * h / MU;
     let mut samples: Vec<[f64; 2]> = Vec::new();
@@ -95,10 +103,11 @@ fn settle(
     for s in 1..=max_steps {
         sim.step(dt)?;
         if s.is_multiple_of(40) || s == max_steps {
+            sim.membrane_velocity(0, &mut u)?;
             let delta = sim.delta(0)?;
             samples.push([
-                surface_velocity_projection(sim.grid(), sim.velocity(), delta, modes[0])?,
-                surface_velocity_projection(sim.grid(), sim.velocity(), delta, modes[1])?,
+                surface_velocity_projection(sim.grid(), &u, delta, modes[0])?,
+                surface_velocity_projection(sim.grid(), &u, delta, modes[1])?,
             ]);
             let k = samples.len();
             let next = std::array::from_fn(|i| {
@@ -133,49 +142,63 @@ fn run() -> BoxResult<()> {
     let ns: Vec<usize> = ns.split(',').map(|s| s.trim().parse()).collect::<Result<_, _>>()?;
     let beta: f64 = args.get("beta", 1.0);
     let max_steps: usize = args.get("steps", 4000);
-    let (mut cpr, mut normal, mut tangential, mut tan_normal) = (vec![], vec![], vec![], vec![]);
+    let couplings: String = args.get("coupling", "smoothed,sharp".to_string());
+    let couplings: Vec<Traction> =
+        couplings.split(',').map(|s| Traction::from_name(s.trim())).collect::<Result<_, _>>()?;
+    let mut rows: Vec<(Traction, f64, [f64; 3])> = Vec::new();
     for &n in &ns {
         if n < 16 || !n.is_multiple_of(2) {
             return Err(format!("--n {n}: expected even numbers of cells >= 16").into());
         }
-        eprintln!("surface_mobility: {n}^3 cells, {} cells per radius, beta = {beta}", n / 8);
-        let clock = Instant::now();
-        let [un, _] = settle(n, beta, max_steps, normal_mode, [normal_mode, tangential_mode])?;
-        let [ur, ut] = settle(n, beta, max_steps, tangential_mode, [normal_mode, tangential_mode])?;
-        let ratios = [
-            un * MU / STOKES_L2_NORMAL,
-            ut * MU / STOKES_L2_TANGENTIAL,
-            ur * MU / STOKES_L2_TANGENTIAL_NORMAL,
-        ];
-        result(&[
-            ("n", n.to_string()),
-            ("cells_per_radius", (n / 8).to_string()),
-            ("beta", beta.to_string()),
-            ("normal", num(ratios[0])),
-            ("tangential", num(ratios[1])),
-            ("tangential_normal", num(ratios[2])),
-            ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
-        ]);
-        cpr.push(n as f64 / 8.0);
-        normal.push(ratios[0]);
-        tangential.push(ratios[1]);
-        tan_normal.push(ratios[2]);
+        for &traction in &couplings {
+            eprintln!(
+                "surface_mobility: {n}^3 cells, {} cells per radius, beta = {beta}, {} coupling",
+                n / 8,
+                traction.name()
+            );
+            let clock = Instant::now();
+            let modes = [normal_mode, tangential_mode];
+            let [un, _] = settle(n, beta, traction, max_steps, normal_mode, modes)?;
+            let [ur, ut] = settle(n, beta, traction, max_steps, tangential_mode, modes)?;
+            let ratios = [
+                un * MU / STOKES_L2_NORMAL,
+                ut * MU / STOKES_L2_TANGENTIAL,
+                ur * MU / STOKES_L2_TANGENTIAL_NORMAL,
+            ];
+            result(&[
+                ("n", n.to_string()),
+                ("cells_per_radius", (n / 8).to_string()),
+                ("beta", beta.to_string()),
+                ("coupling", traction.name().to_string()),
+                ("normal", num(ratios[0])),
+                ("tangential", num(ratios[1])),
+                ("tangential_normal", num(ratios[2])),
+                ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
+            ]);
+            rows.push((traction, n as f64 / 8.0, ratios));
+        }
     }
-    write_columns(
-        out.join("mobility.csv"),
-        &[
-            ("cells_per_radius", &cpr),
-            ("normal", &normal),
-            ("tangential", &tangential),
-            ("tangential_normal", &tan_normal),
-        ],
-    )?;
+    let column = |t: Traction, k: usize| -> Vec<f64> {
+        rows.iter().filter(|r| r.0 == t).map(|r| if k == 3 { r.1 } else { r.2[k] }).collect()
+    };
+    let cpr = column(couplings[0], 3);
+    let mut columns: Vec<(String, Vec<f64>)> = vec![("cells_per_radius".into(), cpr.clone())];
+    for &t in &couplings {
+        for (k, name) in ["normal", "tangential", "tangential_normal"].iter().enumerate() {
+            columns.push((format!("{name}_{}", t.name()), column(t, k)));
+        }
+    }
+    let named: Vec<(&str, &[f64])> = columns.iter().map(|(n, c)| (n.as_str(), c.as_slice())).collect();
+    write_columns(out.join("mobility.csv"), &named)?;
     let mut fig = Figure::new(format!("membrane velocity / Stokes value, l = 2 forces, beta = {beta}"))
         .x_label("cells per radius a/h")
         .y_label("ratio");
-    fig.line_markers(&cpr, &normal, "u_r under a normal force");
-    fig.line_markers(&cpr, &tangential, "u_t under a tangential force");
-    fig.line_markers(&cpr, &tan_normal, "u_r under a tangential force");
+    for &t in &couplings {
+        let name = t.name();
+        fig.line_markers(&cpr, &column(t, 0), &format!("u_r under a normal force, {name}"));
+        fig.line_markers(&cpr, &column(t, 1), &format!("u_t under a tangential force, {name}"));
+        fig.line_markers(&cpr, &column(t, 2), &format!("u_r under a tangential force, {name}"));
+    }
     fig.line(&[cpr[0], cpr[cpr.len() - 1]], &[1.0, 1.0], "sharp membrane (Stokes)");
     fig.save(out.join("mobility.svg"))?;
     eprintln!("wrote {}", out.display());

@@ -139,6 +139,14 @@ impl Args {
         }
     }
 
+    /// `Settings::traction` from `--coupling smoothed|sharp` (default `default`).
+    ///
+    /// # Errors
+    /// Any other coupling name.
+    pub fn traction(&self, default: &str) -> BoxResult<eulermembrane::simulation::Traction> {
+        Ok(eulermembrane::simulation::Traction::from_name(&self.get("coupling", default.to_string()))?)
+    }
+
     /// The output folder (`--out`, default `out/<name>`), created.
     pub fn out_dir(&self, name: &str) -> PathBuf {
         let dir = PathBuf::from(self.raw("out").cloned().unwrap_or_else(|| format!("out/{name}")));

@@ -4,12 +4,12 @@
 
 use super::effect::{LevelChoice, MembraneView, Needs};
 use super::effects::reference_integral;
-use super::scene::{ReferenceArea, Settings, TransportMaker};
+use super::scene::{ReferenceArea, Settings, Traction, TransportMaker};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::interface::geometry::{PhiRange, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
 use crate::interface::{Carried, InterfaceTransport, NormalEstimator};
-use crate::membrane::{Band, StrainTransport, fill_projector};
+use crate::membrane::{Band, StrainTransport, SurfaceExtension, fill_projector};
 use crate::{Real, Result};
 
 /// What is derived from `phi` at one time level.
@@ -42,6 +42,9 @@ pub(crate) struct Capsule<T: Real> {
     /// restores after each step (set from the initial state and by a pre-stretch); `None`
     /// without that setting or without elasticity.
     pub(crate) reference_target: Option<f64>,
+    /// The membrane velocity map of [`Traction::Sharp`], built on the level of the step being
+    /// computed (`None` with the smoothed traction).
+    pub(crate) extension: Option<SurfaceExtension<T>>,
 }
 
 /// `phi` range where the geometry (normals, `delta`) is evaluated: wide enough for the
@@ -120,6 +123,14 @@ impl<T: Real> Capsule<T> {
             ),
             false => None,
         };
+        let extension = match settings.traction {
+            Traction::Sharp => {
+                let mut e = SurfaceExtension::new(grid, settings.advection.beta)?;
+                e.rebuild(&cur.band, &cur.phi, &cur.normal)?;
+                Some(e)
+            }
+            Traction::Smoothed => None,
+        };
         let mut cap = Capsule {
             cur,
             next,
@@ -127,6 +138,7 @@ impl<T: Real> Capsule<T> {
             transport: make(grid, if curvature { Carried::PhiAndCurvature } else { Carried::Phi })?,
             strain,
             reference_target: None,
+            extension,
         };
         if settings.reference_area == ReferenceArea::Conserved {
             cap.reference_target = cap.reference_area(grid);
@@ -147,6 +159,7 @@ impl<T: Real> Capsule<T> {
             band: &l.band,
             curvature: l.kappa.as_ref(),
             gs: self.gs.as_ref(),
+            extension: self.extension.as_ref(),
         }
     }
 
@@ -196,6 +209,9 @@ impl<T: Real> Capsule<T> {
         self.next.copy_from(&self.cur);
         let info = self.transport.advance(grid, v, dt, &mut self.next.phi, self.next.kappa.as_mut())?;
         self.next.derive(grid, normals)?;
+        if let Some(e) = self.extension.as_mut() {
+            e.rebuild(&self.next.band, &self.next.phi, &self.next.normal)?;
+        }
         Ok(info.profile_cells)
     }
 
@@ -203,6 +219,11 @@ impl<T: Real> Capsule<T> {
     /// history.
     pub(crate) fn discard(&mut self) {
         self.transport.undo();
+        if let Some(e) = self.extension.as_mut() {
+            // The current level was built by the same grid: this cannot fail, and a map that
+            // failed would be caught by its generation where it is used.
+            let _ = e.rebuild(&self.cur.band, &self.cur.phi, &self.cur.normal);
+        }
     }
 
     /// Makes the next level the state (after the `G_s` commit).

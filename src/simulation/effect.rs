@@ -67,7 +67,7 @@
 use super::capsule::Capsule;
 use super::scene::{Phase, Settings};
 use crate::grid::{Field, Grid, SymField, VectorField};
-use crate::membrane::{Band, SurfaceLaw};
+use crate::membrane::{Band, SurfaceExtension, SurfaceLaw};
 use crate::{Error, Real, Result};
 
 /// The fields an [`Effect`] needs on the capsules it acts on, beyond `phi` and what is derived
@@ -190,6 +190,10 @@ pub struct MembraneView<'a, T> {
     /// `G_s` at `t^n` (valid on the band and its halo), where some effect
     /// [needs](Needs::strain) it on this capsule.
     pub gs: Option<&'a SymField<T>>,
+    /// The map from the fluid velocity to the membrane velocity of
+    /// [`Traction::Sharp`](super::Traction::Sharp), built for the step being computed (`None`
+    /// with the smoothed traction): in-plane forces act through it.
+    pub extension: Option<&'a SurfaceExtension<T>>,
 }
 
 /// Which time level of the capsules a [`StepState`] shows.

@@ -4,17 +4,18 @@
 //! named with `only` (a mixed suspension: stiff and soft capsules, red cells with another law).
 
 use super::effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
-use super::scene::{BendingCoupling, MembraneCoupling};
+use super::scene::{BendingCoupling, MembraneCoupling, Traction};
 use super::stability::{bending_dt_limit, membrane_dt_limit};
 use crate::error::positive;
-use crate::fluid::{BodyForce, Forcing, ImplicitTerm};
+use crate::fluid::{BodyForce, Forcing, ImplicitTerm, PredictorSolver};
 use crate::grid::ops::cell_vector;
 use crate::grid::{Grid, SymField, VectorField};
 use crate::interface::NormalScheme;
 use crate::membrane::law::check_stress_free;
 use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
 use crate::membrane::{
-    BendingForm, BendingImplicit, BendingStress, InPlaneElasticity, SurfaceLaw, small_strain_moduli,
+    BendingForm, BendingImplicit, BendingStress, InPlaneElasticity, SurfaceExtension, SurfaceLaw,
+    small_strain_moduli,
 };
 use crate::{Error, Real, Result};
 use std::sync::Arc;
@@ -95,6 +96,20 @@ fn implicit_terms_at<'s, 'w, T: Real, W: 'w, I: ImplicitTerm<T>>(
     capsules
         .filter_map(|(c, w)| term(w, state.membrane(c).ok()?).ok())
         .fold(T::zero(), |s, t| s + t.apply_at(state.grid, x, comp, idx))
+}
+
+/// `add(v, out)` for a force on the fluid velocity `v`, or through the membrane velocity map
+/// `extension` of [`Traction::Sharp`] (`out += Mᵀ F(M v)`).
+fn through<T: Real>(
+    extension: Option<&SurfaceExtension<T>>,
+    v: &VectorField<T>,
+    out: &mut VectorField<T>,
+    add: impl FnOnce(&VectorField<T>, &mut VectorField<T>) -> Result<()>,
+) -> Result<()> {
+    match extension {
+        Some(x) => x.pull_back(v, out, add),
+        None => add(v, out),
+    }
 }
 
 /// The capsules a membrane effect acts on and, once attached, its work state `W` on each of
@@ -218,7 +233,18 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         }
         // A law with stress at rest would drive a capsule in its reference state.
         check_stress_free(self.law())?;
-        self.coupling = setup.settings.coupling;
+        let s = setup.settings;
+        if s.traction == Traction::Sharp
+            && s.coupling == MembraneCoupling::QuasiImplicit
+            && matches!(s.flow.predictor, PredictorSolver::Sor(_))
+        {
+            return Err(Error::invalid(
+                "traction",
+                "sharp with the SOR predictor",
+                "the Krylov predictor (or the explicit membrane coupling) with the sharp traction",
+            ));
+        }
+        self.coupling = s.coupling;
         Ok(())
     }
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
@@ -244,13 +270,13 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         out: &mut VectorField<T>,
     ) -> Result<()> {
         for (c, e) in self.at.iter() {
-            let band = state.membrane(c)?.band;
+            let m = state.membrane(c)?;
             let f = match self.coupling {
-                MembraneCoupling::Explicit => e.explicit_forcing(band)?,
-                MembraneCoupling::QuasiImplicit => e.forcing(band)?,
+                MembraneCoupling::Explicit => e.explicit_forcing(m.band)?,
+                MembraneCoupling::QuasiImplicit => e.forcing(m.band)?,
             };
             if f.is_active() {
-                f.add(state.grid, state.time, v, out)?;
+                through(m.extension, v, out, |u, o| f.add(state.grid, state.time, u, o))?;
             }
         }
         Ok(())
@@ -267,7 +293,12 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         if self.coupling != MembraneCoupling::QuasiImplicit {
             return Ok(());
         }
-        add_implicit_terms(state, self.at.iter(), |e, m| e.implicit(m.band), x, y)
+        for (c, e) in self.at.iter() {
+            let m = state.membrane(c)?;
+            let term = e.implicit(m.band)?;
+            through(m.extension, x, y, |u, o| term.add_apply(state.grid, u, o))?;
+        }
+        Ok(())
     }
     fn implicit_at(&self, state: &StepState<'_, T>, x: &VectorField<T>, comp: usize, idx: usize) -> T {
         if self.coupling != MembraneCoupling::QuasiImplicit {
@@ -461,7 +492,7 @@ impl<T: Real> Effect<T> for SurfaceLoad {
     fn add_force(
         &self,
         state: &StepState<'_, T>,
-        _: &VectorField<T>,
+        v: &VectorField<T>,
         out: &mut VectorField<T>,
     ) -> Result<()> {
         let grid = state.grid;
@@ -473,20 +504,23 @@ impl<T: Real> Effect<T> for SurfaceLoad {
             let m = state.membrane(c)?;
             let band = m.band;
             let delta = |idx: usize| if band.contains(idx) { m.delta.data[idx] } else { T::zero() };
-            for (&idx, ijk) in band.halo(1).iter().zip(band.coords(1)) {
-                let [i, j, k] = ijk.map(|x| x as isize);
-                for d in 0..3 {
-                    if !grid.is_periodic(d) && ijk[d] == 0 {
-                        continue;
+            through(m.extension, v, out, |_, out| {
+                for (&idx, ijk) in band.halo(1).iter().zip(band.coords(1)) {
+                    let [i, j, k] = ijk.map(|x| x as isize);
+                    for d in 0..3 {
+                        if !grid.is_periodic(d) && ijk[d] == 0 {
+                            continue;
+                        }
+                        let dd = half * (delta(idx) + delta(idx - st[d]));
+                        if dd == T::zero() {
+                            continue;
+                        }
+                        let x = grid.face_center(d, i, j, k).map(|x| x.f64());
+                        out.c[d].data[idx] += dd * T::lit((self.f)(x, t)[d]);
                     }
-                    let dd = half * (delta(idx) + delta(idx - st[d]));
-                    if dd == T::zero() {
-                        continue;
-                    }
-                    let x = grid.face_center(d, i, j, k).map(|x| x.f64());
-                    out.c[d].data[idx] += dd * T::lit((self.f)(x, t)[d]);
                 }
-            }
+                Ok(())
+            })?;
         }
         Ok(())
     }

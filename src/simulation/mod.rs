@@ -72,7 +72,8 @@ pub use effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepS
 pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
 pub use observer::{Observer, RunSummary};
 pub use scene::{
-    BendingCoupling, GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings, TransportMaker,
+    BendingCoupling, GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings, Traction,
+    TransportMaker,
 };
 pub use timestep::{AdaptiveDt, FixedDt, TimeStepping};
 
@@ -366,15 +367,14 @@ impl<T: Real> Simulation<T> {
         for cap in self.capsules.iter_mut() {
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
                 gs.fill_ghosts(grid);
-                strain.prepare(
-                    grid,
-                    &cap.next.band,
-                    dt,
-                    self.flow.velocity(),
-                    self.flow.prepared_velocity(),
-                    &cap.next.normal,
-                    gs,
-                )?;
+                let (band, normal) = (&cap.next.band, &cap.next.normal);
+                let (v_old, v_new) = (self.flow.velocity(), self.flow.prepared_velocity());
+                match cap.extension.as_ref() {
+                    Some(x) => x.with_extended(v_old, v_new, |u_old, u_new| {
+                        strain.prepare(grid, band, dt, u_old, u_new, normal, gs)
+                    })?,
+                    None => strain.prepare(grid, band, dt, v_old, v_new, normal, gs)?,
+                }
             }
         }
         // The energy ledger, from the step's midpoint velocity.
@@ -401,7 +401,8 @@ impl<T: Real> Simulation<T> {
         for cap in &mut self.capsules {
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
                 strain.commit(&cap.next.band, &cap.next.normal, gs)?;
-                if self.settings.gs_transport.projects() {
+                // The sharp membrane is one surface: G_s has no normal part (2.18).
+                if self.settings.gs_transport.projects() || self.settings.traction == Traction::Sharp {
                     let n = &cap.next.normal;
                     for &idx in cap.next.band.cells() {
                         let p = projector(&cell_vector(n, idx));
@@ -539,6 +540,29 @@ impl<T: Real> Simulation<T> {
     /// `delta = |grad phi|` of capsule `c` (zero where `phi` is saturated).
     pub fn delta(&self, c: usize) -> Result<&Field<T>> {
         Ok(&self.capsule(c)?.cur.delta)
+    }
+    /// The velocity the membrane of capsule `c` moves and strains with, into `out`: the fluid
+    /// velocity with the smoothed traction, the map [`SurfaceExtension`](crate::membrane::SurfaceExtension)
+    /// of it with [`Traction::Sharp`] (the tangential velocity of the closest surface point on
+    /// the faces around the band).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule or `velocity` for a
+    /// field of another grid.
+    pub fn membrane_velocity(&self, c: usize, out: &mut VectorField<T>) -> Result<()> {
+        let cap = self.capsule(c)?;
+        out.matches(&self.grid, "velocity")?;
+        out.copy_from(self.flow.velocity());
+        if let Some(e) = cap.extension.as_ref() {
+            if e.generation() != cap.cur.band.generation() {
+                return Err(Error::Unsupported {
+                    component: "Simulation::membrane_velocity",
+                    detail: "the membrane velocity map is not the current state's".into(),
+                });
+            }
+            e.extend(self.flow.velocity(), out);
+        }
+        Ok(())
     }
     /// Unit normals of capsule `c` at cell centres (pointing into the capsule).
     pub fn normal(&self, c: usize) -> Result<&[Field<T>; 3]> {

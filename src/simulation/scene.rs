@@ -75,6 +75,54 @@ pub struct Settings<T> {
     /// How the bending force enters the predictor. Default [`BendingCoupling::SemiImplicit`]
     /// with `alpha = 1`; [`BendingCoupling::Explicit`] is the paper's.
     pub bending_coupling: BendingCoupling,
+    /// Which velocity carries and strains the membrane, and where its in-plane force acts.
+    /// Default [`Traction::Smoothed`] (the paper's).
+    pub traction: Traction,
+}
+
+/// Which velocity carries and strains the membrane (`G_s`), and so where the in-plane membrane
+/// force acts (it is the adjoint of that velocity's strain rate).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Traction {
+    /// The paper's: each layer of the smoothed shell moves with the fluid velocity at that
+    /// layer, and the force `∇·(δ τ)` acts across the shell.
+    #[default]
+    Smoothed,
+    /// Each layer of the shell slides with the tangential velocity of its closest point on the
+    /// surface `phi = 1/2` (its normal velocity stays the local one), and the in-plane force
+    /// acts there, spread by the transposed interpolation
+    /// ([`SurfaceExtension`](crate::membrane::SurfaceExtension)); a
+    /// [`surface force`](super::Scene::surface_force) acts there too. `G_s` is projected onto
+    /// the tangent plane after each step, as by [`GsTransport::Tangential`], whatever
+    /// [`Settings::gs_transport`] says: without it the normal part of `G_s` grows and the steps
+    /// shrink. Not in the paper. With [`MembraneCoupling::QuasiImplicit`] it needs the Krylov
+    /// predictor.
+    Sharp,
+}
+
+impl Traction {
+    /// Every traction, the default first.
+    pub const ALL: [Traction; 2] = [Traction::Smoothed, Traction::Sharp];
+
+    /// The short name of the examples' `--coupling` flag and their RESULT lines: `smoothed`,
+    /// `sharp`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Traction::Smoothed => "smoothed",
+            Traction::Sharp => "sharp",
+        }
+    }
+
+    /// The traction of a [`name`](Self::name).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `traction` for any other name.
+    pub fn from_name(s: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| Error::invalid("traction", s, "smoothed or sharp"))
+    }
 }
 
 /// How the bending force enters the momentum predictor.
@@ -206,6 +254,7 @@ impl<T: Real> Default for Settings<T> {
             strain_advection: StrainAdvection::default(),
             bending_form: BendingForm::Divergence,
             bending_coupling: BendingCoupling::default(),
+            traction: Traction::default(),
         }
     }
 }
