@@ -82,6 +82,26 @@ pub struct Settings<T> {
 
 /// Which velocity carries and strains the membrane (`G_s`), and so where the in-plane membrane
 /// force acts (it is the adjoint of that velocity's strain rate).
+///
+/// ```
+/// use eulermembrane::grid::Grid;
+/// use eulermembrane::interface::shapes::Sphere;
+/// use eulermembrane::membrane::NeoHookean;
+/// use eulermembrane::simulation::{Phase, Scene, Settings, Traction};
+///
+/// let grid = Grid::<f64>::periodic([16; 3], [0.0; 3], [1.0; 3])?;
+/// let settings = Settings { traction: Traction::from_name("sharp")?, ..Settings::default() };
+/// let mut sim = Scene::new(grid, Phase::new(1.0, 1.0)?)
+///     .capsule(Sphere::new([0.5; 3], 0.25)?)
+///     .elasticity(NeoHookean::new(1.0)?)
+///     .settings(settings)
+///     .build()?;
+/// sim.step(1e-3)?;
+/// // The velocity the membrane moves with: the fluid's, with the surface's tangential part.
+/// let mut u = sim.velocity().clone();
+/// sim.membrane_velocity(0, &mut u)?;
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Traction {
     /// The paper's: each layer of the smoothed shell moves with the fluid velocity at that
