@@ -97,8 +97,9 @@ pub struct SurfaceExtension<T> {
     beta: T,
     /// Per component: one row per cell of `halo(2)`, for the cell's lower face.
     rows: [Vec<Row<T>>; 3],
-    /// Per component: `(face, ghost)` pairs, the periodic ghost images of the faces.
-    images: [Vec<(usize, usize)>; 3],
+    /// `(face, ghost)` pairs: the periodic ghost images of the faces (of the same cells, so
+    /// the same storage indices, for every component).
+    images: Vec<(usize, usize)>,
     generation: u64,
     scratch: Mutex<Scratch<T>>,
 }
@@ -131,7 +132,7 @@ impl<T: Real> SurfaceExtension<T> {
             grid: grid.clone(),
             beta,
             rows: Default::default(),
-            images: Default::default(),
+            images: Vec::new(),
             generation: 0,
             scratch: Mutex::new(Scratch {
                 u: VectorField::zeros(grid),
@@ -190,11 +191,10 @@ impl<T: Real> SurfaceExtension<T> {
                         *row = Row { face: m, at, surface, n };
                     }
                 });
-            let images = &mut self.images[c];
-            images.clear();
-            for (&m, ijk) in cells.iter().zip(coords) {
-                push_images(grid, ijk.map(|x| x as isize), m, images);
-            }
+        }
+        self.images.clear();
+        for (&m, ijk) in cells.iter().zip(coords) {
+            push_images(grid, ijk.map(|x| x as isize), m, &mut self.images);
         }
         self.generation = band.generation();
         Ok(())
@@ -225,7 +225,7 @@ impl<T: Real> SurfaceExtension<T> {
             for (r, &x) in rows.iter().zip(values.iter()) {
                 uc[r.face] = x;
             }
-            for &(f, g) in &self.images[c] {
+            for &(f, g) in &self.images {
                 uc[g] = uc[f];
             }
         }
@@ -259,12 +259,37 @@ impl<T: Real> SurfaceExtension<T> {
         let mut guard = self.scratch.lock().unwrap_or_else(|p| p.into_inner());
         let Scratch { u, f, values } = &mut *guard;
         self.extend_into(v, u, values);
+        self.spread_into(f, out, |f| force(u, f))
+    }
+
+    /// Adds to `out` the force `Mᵀ F` of a force `F = force()` that does not depend on the
+    /// velocity (a prescribed load; `force` adds `F` to the zeroed field it receives, on the
+    /// faces of the map only).
+    ///
+    /// # Errors
+    /// Those of `force`; then `out` is unchanged.
+    pub fn spread(
+        &self,
+        out: &mut VectorField<T>,
+        force: impl FnOnce(&mut VectorField<T>) -> Result<()>,
+    ) -> Result<()> {
+        let mut guard = self.scratch.lock().unwrap_or_else(|p| p.into_inner());
+        self.spread_into(&mut guard.f, out, force)
+    }
+
+    /// Zeroes `f` on the faces of the map, lets `force` add to it, and adds `Mᵀ f` to `out`.
+    fn spread_into(
+        &self,
+        f: &mut VectorField<T>,
+        out: &mut VectorField<T>,
+        force: impl FnOnce(&mut VectorField<T>) -> Result<()>,
+    ) -> Result<()> {
         for c in 0..3 {
             for r in &self.rows[c] {
                 f.c[c].data[r.face] = T::zero();
             }
         }
-        force(u, f)?;
+        force(f)?;
         self.spread_add(f, out);
         Ok(())
     }
@@ -521,7 +546,6 @@ mod tests {
                 }
             }
         }
-        // Only the averaged normal and distance of the two cells of a face are approximate.
         // The face takes the mean normal and distance of its two cells: O(h^2 / R) (1.3e-3 here).
         assert!(worst < 2e-3, "largest deviation {worst}");
     }

@@ -492,7 +492,7 @@ impl<T: Real> Effect<T> for SurfaceLoad {
     fn add_force(
         &self,
         state: &StepState<'_, T>,
-        v: &VectorField<T>,
+        _: &VectorField<T>,
         out: &mut VectorField<T>,
     ) -> Result<()> {
         let grid = state.grid;
@@ -504,7 +504,7 @@ impl<T: Real> Effect<T> for SurfaceLoad {
             let m = state.membrane(c)?;
             let band = m.band;
             let delta = |idx: usize| if band.contains(idx) { m.delta.data[idx] } else { T::zero() };
-            through(m.extension, v, out, |_, out| {
+            let add = |out: &mut VectorField<T>| {
                 for (&idx, ijk) in band.halo(1).iter().zip(band.coords(1)) {
                     let [i, j, k] = ijk.map(|x| x as isize);
                     for d in 0..3 {
@@ -520,7 +520,11 @@ impl<T: Real> Effect<T> for SurfaceLoad {
                     }
                 }
                 Ok(())
-            })?;
+            };
+            match m.extension {
+                Some(x) => x.spread(out, add)?,
+                None => add(out)?,
+            }
         }
         Ok(())
     }
