@@ -2,15 +2,19 @@
 //! solution of a sharp membrane: the discrete *mobility* of the full Eulerian coupling, and
 //! why a capsule needs many cells per radius.
 //!
-//! A sphere of radius `a = 1` in a periodic box `[-4, 4]^3` of fluid (`rho = 1`, `mu = 100` on
-//! both sides, `Re << 1`), no elasticity, and one of two `l = 2` surface forces (per unit area,
-//! applied as `delta f` by [`Scene::surface_force`]), with `Y = 2 x z / r^2`:
+//! A sphere of radius `a = 1` in a periodic box `[-4, 4]^3` of fluid (`rho = 1`, `mu = 100`
+//! outside and `lambda mu` inside, `Re << 1`), no elasticity, and one of two `l = 2` surface
+//! forces (per unit area, applied as `delta f` by [`Scene::surface_force`]), with
+//! `Y = 2 x z / r^2`:
 //!
-//! - *normal*: `f = g Y e_r`. Stokes: `u_r = (4/35) g a Y / mu` on the surface (the single-layer
-//!   potential for equal viscosities; Taylor's relaxation time of a drop of equal viscosity,
+//! - *normal*: `f = g Y e_r`. Stokes: `u_r = (4/35) g a Y / mu` on the surface for `lambda = 1`
+//!   (the single-layer potential; Taylor's relaxation time of a drop of equal viscosity,
 //!   `tau = 35 mu a / (16 sigma)`, is the same number);
 //! - *tangential*: `f = g grad_s Y`. Stokes: `u_t = (1/7) g a grad_s Y / mu` and
-//!   `u_r = (6/35) g a Y / mu`.
+//!   `u_r = (6/35) g a Y / mu` for `lambda = 1`.
+//!
+//! Other viscosity ratios: [`StokesL2::with_viscosity_ratio`] (the red cells' `lambda = 5`:
+//! 0.0416, 0.0534 and 0.0707).
 //!
 //! The flow starts at rest and is stepped (`dt = h^2 rho / mu`, viscous number 1), sampling
 //! the projections every 40 steps and extrapolating them to their limit (Aitken), until the
@@ -28,9 +32,10 @@
 //! Flags: `--n LIST` (24,32, about a minute; the table of `docs/validation/surface_mobility.md` is
 //! `--n 24,32,48,64`, about 6 minutes; cells per side, `a / h = N / 8`), `--coupling LIST`
 //! (`smoothed,sharp`: `Settings::traction` of each run), `--beta B` (sharpness of the
-//! `phi` profile, initial and advected; 1, the paper's), `--steps` (4000), `--out DIR`
+//! `phi` profile, initial and advected; 1, the paper's), `--lambda L` (inner over outer
+//! viscosity, 1), `--steps` (4000), `--out DIR`
 //! (`out/surface_mobility`: `mobility.csv`, `mobility.svg`).
-//! Prints `RESULT n=... cells_per_radius=... beta=... coupling=... normal=... tangential=...
+//! Prints `RESULT n=... cells_per_radius=... beta=... lambda=... coupling=... normal=... tangential=...
 //! tangential_normal=... wall_s=...` per N and coupling (each the ratio to the Stokes value).
 //!
 //! Run: `cargo run --release --example surface_mobility`.
@@ -39,8 +44,8 @@ use eulermembrane_cases as common;
 
 use common::{Args, BoxResult, num, result};
 use eulermembrane::diagnostics::{
-    STOKES_L2_NORMAL, STOKES_L2_TANGENTIAL, STOKES_L2_TANGENTIAL_NORMAL, l2_normal_mode as normal_mode,
-    l2_tangential_mode as tangential_mode, surface_velocity_projection,
+    StokesL2, l2_normal_mode as normal_mode, l2_tangential_mode as tangential_mode,
+    surface_velocity_projection,
 };
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
@@ -60,6 +65,7 @@ fn main() {
 fn scene(
     n: usize,
     beta: f64,
+    lambda: f64,
     traction: Traction,
     mode: fn([f64; 3]) -> [f64; 3],
 ) -> eulermembrane::Result<Simulation<f64>> {
@@ -68,6 +74,7 @@ fn scene(
     settings.advection.beta = beta;
     settings.smoothing.beta = beta;
     Scene::new(grid, Phase::new(1.0, MU)?)
+        .inside(Phase::new(1.0, lambda * MU)?)
         .capsule(Sphere::new([0.0; 3], 1.0)?)
         .surface_force(move |x, _| mode(x))
         .settings(settings)
@@ -89,12 +96,13 @@ fn aitken(c: [f64; 3]) -> f64 {
 fn settle(
     n: usize,
     beta: f64,
+    lambda: f64,
     traction: Traction,
     max_steps: usize,
     force: fn([f64; 3]) -> [f64; 3],
     modes: [fn([f64; 3]) -> [f64; 3]; 2],
 ) -> BoxResult<[f64; 2]> {
-    let mut sim = scene(n, beta, traction, force)?;
+    let mut sim = scene(n, beta, lambda, traction, force)?;
     let mut u = sim.velocity().clone();
     let h = 2.0 * HALF / n as f64;
     let dt = h * h / MU;
@@ -141,6 +149,8 @@ fn run() -> BoxResult<()> {
     let ns: String = args.get("n", "24,32".to_string());
     let ns: Vec<usize> = ns.split(',').map(|s| s.trim().parse()).collect::<Result<_, _>>()?;
     let beta: f64 = args.get("beta", 1.0);
+    let lambda: f64 = args.get("lambda", 1.0);
+    let stokes = StokesL2::with_viscosity_ratio(lambda)?;
     let max_steps: usize = args.get("steps", 4000);
     let couplings: String = args.get("coupling", "smoothed,sharp".to_string());
     let couplings: Vec<Traction> =
@@ -158,17 +168,15 @@ fn run() -> BoxResult<()> {
             );
             let clock = Instant::now();
             let modes = [normal_mode, tangential_mode];
-            let [un, _] = settle(n, beta, traction, max_steps, normal_mode, modes)?;
-            let [ur, ut] = settle(n, beta, traction, max_steps, tangential_mode, modes)?;
-            let ratios = [
-                un * MU / STOKES_L2_NORMAL,
-                ut * MU / STOKES_L2_TANGENTIAL,
-                ur * MU / STOKES_L2_TANGENTIAL_NORMAL,
-            ];
+            let [un, _] = settle(n, beta, lambda, traction, max_steps, normal_mode, modes)?;
+            let [ur, ut] = settle(n, beta, lambda, traction, max_steps, tangential_mode, modes)?;
+            let ratios =
+                [un * MU / stokes.normal, ut * MU / stokes.tangential, ur * MU / stokes.tangential_normal];
             result(&[
                 ("n", n.to_string()),
                 ("cells_per_radius", (n / 8).to_string()),
                 ("beta", beta.to_string()),
+                ("lambda", lambda.to_string()),
                 ("coupling", traction.name().to_string()),
                 ("normal", num(ratios[0])),
                 ("tangential", num(ratios[1])),
@@ -190,9 +198,11 @@ fn run() -> BoxResult<()> {
     }
     let named: Vec<(&str, &[f64])> = columns.iter().map(|(n, c)| (n.as_str(), c.as_slice())).collect();
     write_columns(out.join("mobility.csv"), &named)?;
-    let mut fig = Figure::new(format!("membrane velocity / Stokes value, l = 2 forces, beta = {beta}"))
-        .x_label("cells per radius a/h")
-        .y_label("ratio");
+    let mut fig = Figure::new(format!(
+        "membrane velocity / Stokes value, l = 2 forces, beta = {beta}, lambda = {lambda}"
+    ))
+    .x_label("cells per radius a/h")
+    .y_label("ratio");
     for &t in &couplings {
         let name = t.name();
         fig.line_markers(&cpr, &column(t, 0), &format!("u_r under a normal force, {name}"));

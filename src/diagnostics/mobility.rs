@@ -11,24 +11,73 @@
 //! velocity the *smoothed* membrane moves with, not the fluid velocity on the sharp surface.
 //!
 //! Applied to the response to a prescribed surface force it measures the discrete mobility of
-//! the membrane (see `cases/examples/surface_mobility.rs`): for a sphere of radius `a` in a fluid of
-//! viscosity `mu` on both sides, a force `g Y_2 e_r` gives `u_r = (4/35) g a Y_2 / mu` on the
-//! surface (the single-layer Stokes potential; the same as Taylor's relaxation time of a drop of
-//! equal viscosity), and `g grad_s Y_2` gives `u_t = (1/7) g a grad_s Y_2 / mu` and
-//! `u_r = (6/35) g a Y_2 / mu`. [`l2_normal_mode`] and [`l2_tangential_mode`] are these two
-//! modes for `Y_2 = 2 x z / r^2`; the `STOKES_L2_*` constants the three coefficients.
+//! the membrane (see `cases/examples/surface_mobility.rs`): [`StokesL2`] holds the velocities of
+//! a sharp sphere under the two `l = 2` surface forces `g Y_2 e_r` and `g grad_s Y_2`, for any
+//! ratio of the inner to the outer viscosity; [`l2_normal_mode`] and [`l2_tangential_mode`] are
+//! the two modes for `Y_2 = 2 x z / r^2`.
 
 use super::reduce::{check_field, check_vector, finite_or, sum_cells};
 use crate::grid::ops::velocity_at_cell;
 use crate::grid::{Field, Grid, VectorField};
 use crate::{Error, Real, Result};
 
-/// Stokes: `u_r / (g a Y_2 / mu)` on a sphere under the normal force `g Y_2 e_r`.
-pub const STOKES_L2_NORMAL: f64 = 4.0 / 35.0;
-/// Stokes: `u_t / (g a grad_s Y_2 / mu)` on a sphere under the tangential force `g grad_s Y_2`.
-pub const STOKES_L2_TANGENTIAL: f64 = 1.0 / 7.0;
-/// Stokes: `u_r / (g a Y_2 / mu)` on a sphere under the tangential force `g grad_s Y_2`.
-pub const STOKES_L2_TANGENTIAL_NORMAL: f64 = 6.0 / 35.0;
+/// The Stokes velocities on a sphere of radius `a` (a sharp membrane) under the `l = 2` surface
+/// forces, in units of `g a / mu_out`: `u_r = c Y_2` for a normal part, `u_t = c grad_s Y_2` for a
+/// tangential part.
+///
+/// From Lamb's general solution with the solid harmonic `r^2 Y_2` (regular inside, decaying
+/// outside, inner viscosity `lambda mu_out`), with velocity continuous and the traction jump
+/// equal to the force across `r = a`. With `lambda = 1` the normal coefficient is the
+/// single-layer value 4/35 (Taylor's relaxation of a drop of equal viscosity); for any `lambda`
+/// it is Taylor's `10 (lambda + 1) / ((2 lambda + 3)(19 lambda + 16))`, and the reciprocal
+/// theorem ties the two cross terms: `tangential_normal = 6 normal_tangential`.
+///
+/// ```
+/// use eulermembrane::diagnostics::StokesL2;
+/// let equal = StokesL2::EQUAL_VISCOSITIES;
+/// assert!((equal.tangential - 1.0 / 7.0).abs() < 1e-15);
+/// let red_cell = StokesL2::with_viscosity_ratio(5.0)?;
+/// assert!(red_cell.tangential < equal.tangential);
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StokesL2 {
+    /// `u_r / (g a Y_2 / mu)` under the normal force `g Y_2 e_r`.
+    pub normal: f64,
+    /// `u_t / (g a grad_s Y_2 / mu)` under the normal force `g Y_2 e_r`.
+    pub normal_tangential: f64,
+    /// `u_t / (g a grad_s Y_2 / mu)` under the tangential force `g grad_s Y_2`.
+    pub tangential: f64,
+    /// `u_r / (g a Y_2 / mu)` under the tangential force `g grad_s Y_2`.
+    pub tangential_normal: f64,
+}
+
+impl StokesL2 {
+    /// The same viscosity on both sides (`lambda = 1`).
+    pub const EQUAL_VISCOSITIES: StokesL2 = StokesL2 {
+        normal: 4.0 / 35.0,
+        normal_tangential: 1.0 / 35.0,
+        tangential: 1.0 / 7.0,
+        tangential_normal: 6.0 / 35.0,
+    };
+
+    /// The coefficients for the inner viscosity `lambda` times the outer one.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] unless `lambda` is positive and finite.
+    pub fn with_viscosity_ratio(lambda: f64) -> Result<Self> {
+        if !(lambda > 0.0 && lambda.is_finite()) {
+            return Err(Error::invalid("lambda", lambda, "a positive, finite viscosity ratio"));
+        }
+        let d = (2.0 * lambda + 3.0) * (19.0 * lambda + 16.0);
+        Ok(StokesL2 {
+            normal: 10.0 * (lambda + 1.0) / d,
+            normal_tangential: (3.0 * lambda + 2.0) / d,
+            tangential: (13.0 * lambda + 12.0) / d,
+            tangential_normal: 6.0 * (3.0 * lambda + 2.0) / d,
+        })
+    }
+}
 
 /// The unit vector along `r`.
 fn radial(r: [f64; 3]) -> [f64; 3] {
@@ -120,6 +169,35 @@ mod tests {
         // a mode twice as long halves the coefficient
         let c2 = surface_velocity_projection(&g, &v, &delta, |_| [2.0, 0.0, 0.0]).unwrap();
         assert!((c2 - 0.5 * 0.4375).abs() < 1e-12, "{c2}");
+    }
+
+    #[test]
+    fn stokes_l2_matches_the_drop_limits_and_reciprocity() {
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-15 * b.abs().max(1.0);
+        let one = StokesL2::with_viscosity_ratio(1.0).unwrap();
+        let e = StokesL2::EQUAL_VISCOSITIES;
+        assert!(close(one.normal, e.normal) && close(one.tangential, e.tangential));
+        assert!(
+            close(one.normal_tangential, e.normal_tangential)
+                && close(one.tangential_normal, e.tangential_normal)
+        );
+        for lambda in [1e-6, 0.2, 1.0, 5.0, 1e6] {
+            let c = StokesL2::with_viscosity_ratio(lambda).unwrap();
+            // Taylor's relaxation time of a drop's l = 2 shape, tau = (2 lambda + 3)(19 lambda + 16)
+            // mu a / (40 (lambda + 1) sigma), under the Laplace force 4 sigma / a^2 per unit
+            // amplitude: u_r / f = a^2 / (4 sigma tau).
+            let tau = (2.0 * lambda + 3.0) * (19.0 * lambda + 16.0) / (40.0 * (lambda + 1.0));
+            assert!(close(c.normal, 1.0 / (4.0 * tau)), "lambda {lambda}");
+            // reciprocity: int f_n u_r(tangential force) = int f_t . u_t(normal force), and
+            // int |grad_s Y_2|^2 = 6 int Y_2^2 on the unit sphere
+            assert!(close(c.tangential_normal, 6.0 * c.normal_tangential), "lambda {lambda}");
+        }
+        // a bubble (lambda -> 0) moves 5/24; a rigid interior (lambda -> infinity) not at all
+        assert!((StokesL2::with_viscosity_ratio(1e-9).unwrap().normal - 5.0 / 24.0).abs() < 1e-8);
+        assert!(StokesL2::with_viscosity_ratio(1e9).unwrap().tangential < 1e-9);
+        assert!(
+            StokesL2::with_viscosity_ratio(0.0).is_err() && StokesL2::with_viscosity_ratio(f64::NAN).is_err()
+        );
     }
 
     #[test]

@@ -54,10 +54,7 @@ pub use energy::{
     DissipationForm, EnergyBudget, EnergySample, EnergyState, StepIntegrals, body_force_power,
     elastic_energy, kinetic_energy, viscous_dissipation,
 };
-pub use mobility::{
-    STOKES_L2_NORMAL, STOKES_L2_TANGENTIAL, STOKES_L2_TANGENTIAL_NORMAL, l2_normal_mode, l2_tangential_mode,
-    surface_velocity_projection,
-};
+pub use mobility::{StokesL2, l2_normal_mode, l2_tangential_mode, surface_velocity_projection};
 pub use modes::{ModeWeight, SurfaceModes, mode_amplitudes, normalized_legendre, surface_modes};
 pub use profile::{ProfileAxes, Span, streamwise_profile};
 pub use tangency::{GsTangency, gs_tangency};
