@@ -26,6 +26,7 @@ fn shear_step(c: &mut Criterion<CpuTime>) {
         dt: 0.05,
         t_end: 0.2,
         steps: Steps::Adaptive { cfl: 0.3 },
+        box_radii: ShearCase::PAPER_BOX,
     };
     let mut sim = shear::build::<f64>(&case, Settings::default()).expect("shear scene");
     let mut control = AdaptiveDt::new(case.dt).expect("adaptive dt");

@@ -11,7 +11,7 @@
 //! published late-time value (NaN where there is none), `t_end` the time reached, `s0_ratio`
 //! the membrane's reference area at the end over its initial value, and `max_curve_err` the
 //! largest `|D - D_BEM| / D_BEM` over the times of the Ramanujan & Pozrikidis (1998) curve in
-//! `[0.5, 4]` (NaN without it).
+//! `[0.5, 4]` (NaN without it); `coupling` and `box` say how it ran.
 //!
 //! Steps: adaptive by default (`simulation::AdaptiveDt`: Courant target `--cfl`, the membrane
 //! and bending limits, at most `--max-dt`); `--dt DT` takes fixed steps of `DT` instead (the
@@ -31,10 +31,13 @@
 //! `--bending-form divergence|energy` (`Settings::bending_form`),
 //! `--bending-coupling semi-implicit|explicit` (`Settings::bending_coupling`, default
 //! semi-implicit; `--bending-alpha`, 1, its weight `alpha`),
-//! `--coupling smoothed|sharp` (`Settings::traction`, default `smoothed`),
+//! `--coupling sharp|smoothed` (`Settings::traction`, default `sharp`: it holds the membrane's
+//! reference area and cuts the overshoot at 8 cells per radius to a third; `smoothed` is the
+//! paper's and `Settings::default()`'s),
+//! `--box LX,LY,LZ` (the box in radii, `8,4,8`: the paper's; each a multiple of `8/N`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
-//! Run: `cargo run --release --example shear_capsule` (about 10 s on one core; `--n 64` for
+//! Run: `cargo run --release --example shear_capsule` (about 15 s on one core; `--n 64` for
 //! 8 cells per radius, a few minutes).
 
 use eulermembrane_cases as common;
@@ -51,6 +54,8 @@ use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;
 
 const SWEEP: [f64; 5] = [0.0125, 0.025, 0.05, 0.1, 0.2];
+/// The membrane coupling without `--coupling` (docs/validation/shear_capsule.md says why).
+const DEFAULT_COUPLING: &str = "sharp";
 
 fn main() {
     common::exit_on_error(run());
@@ -66,7 +71,14 @@ fn run() -> BoxResult<()> {
         Some(dt) => (dt, Steps::Fixed),
         None => (args.get("max-dt", 0.05), Steps::Adaptive { cfl: args.get("cfl", AdaptiveDt::DEFAULT_CFL) }),
     };
-    let base = ShearCase { n, ca, eb_prime, lambda, dt, t_end: args.get("t-end", 6.0), steps };
+    let box_radii = match args.opt::<String>("box") {
+        None => ShearCase::PAPER_BOX,
+        Some(text) => {
+            let l: Vec<f64> = text.split(',').map(|s| s.trim().parse()).collect::<Result<_, _>>()?;
+            l.try_into().map_err(|_| format!("--box {text}: three lengths LX,LY,LZ"))?
+        }
+    };
+    let base = ShearCase { n, ca, eb_prime, lambda, dt, t_end: args.get("t-end", 6.0), steps, box_radii };
     let refdir: Option<std::path::PathBuf> = args.opt("reference");
     if args.flag("sweep") {
         let mut fig = Figure::new(format!("Taylor deformation, N = {n} (Fig. 10)")).x_label("t").y_label("D");
@@ -78,7 +90,7 @@ fn run() -> BoxResult<()> {
             let case = ShearCase { ca, ..base.clone() };
             eprintln!("shear_capsule: Ca = {ca}, N = {n}, {}, t_end = {}", steps_text(&case), case.t_end);
             let o = simulate(&args, &case, None)?;
-            let (d_ref, rel) = report(&case, &o, refdir.clone(), args.traction("smoothed")?);
+            let (d_ref, rel) = report(&case, &o, refdir.clone(), args.traction(DEFAULT_COUPLING)?);
             csv.row(&[ca, n as f64, o.d_steady, o.angle_steady, d_ref, rel, o.wall_s])?;
             let t: Vec<f64> = o.samples.iter().map(|s| s.t).collect();
             fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), &format!("Ca = {ca}"));
@@ -111,7 +123,7 @@ fn run() -> BoxResult<()> {
     fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), "present (full Eulerian)");
     add_references(&mut fig, refdir.clone(), base.ca, base.eb_prime, false);
     fig.save(out.join("deformation.svg"))?;
-    report(&base, &o, refdir, args.traction("smoothed")?);
+    report(&base, &o, refdir, args.traction(DEFAULT_COUPLING)?);
     Ok(())
 }
 
@@ -150,7 +162,7 @@ fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResu
     let form = BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
     let transport = GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?;
     let bending = args.bending_coupling()?;
-    let traction = args.traction("smoothed")?;
+    let traction = args.traction(DEFAULT_COUPLING)?;
     if args.flag("f32") {
         shear::run::<f32>(case, settings(args, form, transport, bending, traction), 0.05, vtk, false)
     } else {
@@ -169,17 +181,7 @@ fn max_curve_err(case: &ShearCase, o: &ShearOutcome, given: Option<std::path::Pa
     let Ok(curve) = read_xy(dir.join(format!("ramanujan_pozrikidis_1998_ca_{}.csv", case.ca))) else {
         return f64::NAN;
     };
-    let d_at = |t: f64| {
-        o.samples.windows(2).find(|w| w[0].t <= t && t <= w[1].t).map(|w| {
-            let f = if w[1].t > w[0].t { (t - w[0].t) / (w[1].t - w[0].t) } else { 0.0 };
-            w[0].d + f * (w[1].d - w[0].d)
-        })
-    };
-    curve
-        .iter()
-        .filter(|&&(t, _)| (0.5..=4.0).contains(&t))
-        .filter_map(|&(t, d_bem)| d_at(t).map(|d| (d - d_bem).abs() / d_bem))
-        .fold(f64::NAN, f64::max)
+    o.max_curve_err(&curve, 0.5..=4.0)
 }
 
 /// Prints the RESULT line of a run; returns the reference `D` and the relative error (NaN
@@ -214,6 +216,7 @@ fn report(
         ("s0_ratio", num(o.s0_ratio)),
         ("max_curve_err", num(max_curve_err(case, o, refdir))),
         ("coupling", coupling.name().to_string()),
+        ("box", case.box_radii.map(|l| l.to_string()).join(",")),
     ]);
     (d_ref, rel)
 }

@@ -2,8 +2,9 @@
 //! `accuracy_cost` and `stability` examples: the scene, a run that records the Taylor
 //! deformation `D(t)`, and the published late-time values.
 //!
-//! Set-up: `x in [-4, 4]`, `y in [-2, 2]`, `z in [-4, 4]` on `(N, N/2, N)` cells, periodic in x
-//! and y, walls `z = -4, 4` moving at `-4, +4` along x (shear rate 1), a sphere of radius
+//! Set-up (the paper's box, [`ShearCase::PAPER_BOX`]): `x in [-4, 4]`, `y in [-2, 2]`,
+//! `z in [-4, 4]` on `(N, N/2, N)` cells, periodic in x and y, walls `z = -4, 4` moving at
+//! `-4, +4` along x (shear rate 1; a larger box keeps `h = 8/N` and the shear rate), a sphere of radius
 //! `a = 1` at the origin, `rho = 1`, `Re = rho a^2 / mu = 0.01` so `mu = 100`,
 //! `E_s = mu a / Ca` (neo-Hookean), bending `E_b = E_b' a^2 E_s`. The flow starts as the
 //! undisturbed shear `u = z`. Time is in units of the inverse shear rate.
@@ -59,6 +60,15 @@ pub struct ShearCase {
     pub t_end: f64,
     /// How the steps are chosen.
     pub steps: Steps,
+    /// The box's lengths along x, y, z in capsule radii, centred on the capsule (the paper's:
+    /// [`ShearCase::PAPER_BOX`]); the spacing stays `8 / N`, so a larger box has more cells.
+    pub box_radii: [f64; 3],
+}
+
+impl ShearCase {
+    /// The box of Sec. 3.3: `8 x 4 x 8` radii, so periodic images 8 radii apart along the flow
+    /// and 4 along the vorticity, and walls 4 radii from the centre.
+    pub const PAPER_BOX: [f64; 3] = [8.0, 4.0, 8.0];
 }
 
 /// How a shear run chooses its steps.
@@ -125,19 +135,51 @@ pub struct ShearOutcome {
     pub s0_ratio: f64,
 }
 
+impl ShearOutcome {
+    /// The largest `|D - D_ref| / D_ref` over the points `(t, D_ref)` of `curve` with `t` in
+    /// `times` that the history covers (`D` interpolated linearly); NaN where none is covered.
+    pub fn max_curve_err(&self, curve: &[(f64, f64)], times: std::ops::RangeInclusive<f64>) -> f64 {
+        let d_at = |t: f64| {
+            self.samples.windows(2).find(|w| w[0].t <= t && t <= w[1].t).map(|w| {
+                let f = if w[1].t > w[0].t { (t - w[0].t) / (w[1].t - w[0].t) } else { 0.0 };
+                w[0].d + f * (w[1].d - w[0].d)
+            })
+        };
+        curve
+            .iter()
+            .filter(|(t, _)| times.contains(t))
+            .filter_map(|&(t, d_ref)| d_at(t).map(|d| (d - d_ref).abs() / d_ref))
+            .fold(f64::NAN, f64::max)
+    }
+}
+
 /// The scene of Sec. 3.3 in precision `T`, with `settings`.
 pub fn build<T: Real>(case: &ShearCase, settings: Settings<T>) -> eulermembrane::Result<Simulation<T>> {
     let n = case.n;
     if n < 16 || !n.is_multiple_of(2) {
         return Err(eulermembrane::Error::invalid("--n", n, "an even number of cells >= 16"));
     }
-    let u = T::lit(4.0);
+    let h = 8.0 / n as f64;
+    let mut cells = [0usize; 3];
+    for (c, &l) in cells.iter_mut().zip(&case.box_radii) {
+        let k = (l / h).round();
+        if !(l > 0.0 && k >= 4.0 && (k * h - l).abs() < 1e-9 * l) {
+            return Err(eulermembrane::Error::invalid(
+                "box_radii",
+                format!("{:?}", case.box_radii),
+                "positive lengths, each a multiple of the spacing 8/N of at least 4 cells",
+            ));
+        }
+        *c = k as usize;
+    }
+    let half = case.box_radii.map(|l| T::lit(l / 2.0));
+    let u = half[2];
     let mut bc = [[Boundary::Periodic; 2]; 3];
     bc[2] = [
         Boundary::Wall { velocity: [-u, T::zero(), T::zero()] },
         Boundary::Wall { velocity: [u, T::zero(), T::zero()] },
     ];
-    let grid = Grid::new([n, n / 2, n], [T::lit(-4.0), T::lit(-2.0), T::lit(-4.0)], [u, T::lit(2.0), u], bc)?;
+    let grid = Grid::new(cells, half.map(|x| -x), half, bc)?;
     let es = MU / case.ca;
     let mut scene = Scene::new(grid, Phase::new(T::one(), T::lit(MU))?)
         .inside(Phase::new(T::one(), T::lit(MU * case.lambda))?)
@@ -289,4 +331,46 @@ pub fn run<T: Real>(
         s0_ratio: sim.reference_area(0)?.unwrap_or(f64::NAN) / s00,
         samples,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use eulermembrane::simulation::Settings;
+
+    fn case(box_radii: [f64; 3]) -> ShearCase {
+        ShearCase {
+            n: 16,
+            ca: 0.05,
+            eb_prime: 0.0,
+            lambda: 1.0,
+            dt: 0.01,
+            t_end: 0.1,
+            steps: Steps::Fixed,
+            box_radii,
+        }
+    }
+
+    #[test]
+    fn the_box_keeps_the_spacing_and_the_shear_rate() {
+        let paper = build::<f64>(&case(ShearCase::PAPER_BOX), Settings::default()).unwrap();
+        assert_eq!(paper.grid().n(), [16, 8, 16]);
+        let tall = build::<f64>(&case([8.0, 8.0, 16.0]), Settings::default()).unwrap();
+        let g = tall.grid();
+        assert_eq!(g.n(), [16, 16, 32]);
+        assert_eq!((g.h(), g.lower(), g.upper()), ([0.5; 3], [-4.0, -4.0, -8.0], [4.0, 4.0, 8.0]));
+        // walls moving at -L_z/2 and +L_z/2: shear rate 1, as in the paper's box
+        let [Boundary::Wall { velocity: low }, Boundary::Wall { velocity: high }] = g.bc(2) else {
+            panic!("walls along z: {:?}", g.bc(2))
+        };
+        assert_eq!((low[0], high[0]), (-8.0, 8.0));
+    }
+
+    #[test]
+    fn a_box_off_the_grid_is_refused() {
+        for bad in [[8.0, 4.1, 8.0], [8.0, 0.0, 8.0], [8.0, 1.0, 8.0], [f64::NAN, 4.0, 8.0]] {
+            let e = build::<f64>(&case(bad), Settings::default()).err().expect("refused");
+            assert!(e.to_string().contains("box_radii"), "{bad:?}: {e}");
+        }
+    }
 }
