@@ -42,7 +42,8 @@
 //! (`Settings::gs_transport`, default `paper`), `--bending-coupling semi-implicit|explicit`
 //! (`Settings::bending_coupling`, default semi-implicit; the paper's and the figures of
 //! `docs/validation/red_cells.md` are explicit; `--bending-alpha`, 1),
-//! `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
+//! `--coupling smoothed|sharp` (`Settings::traction`, default the paper's `smoothed`; the key
+//! `coupling` of the `single` and `two` RESULT lines), `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
 //! Long runs (`two1`, `two2`): `--progress-every T` prints a progress line every `T` time units
 //! (default: every twentieth of the run); `--checkpoint-every T` writes the whole state to
@@ -63,7 +64,7 @@ use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{BendingForm, Skalak};
-use eulermembrane::simulation::{BendingCoupling, GsTransport, Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{BendingCoupling, GsTransport, Phase, Scene, Settings, Simulation, Traction};
 use eulermembrane_cases::csv::{CsvWriter, read_columns, write_columns};
 use eulermembrane_cases::plot::{Figure, LineStyle, contour_segments};
 use std::path::{Path, PathBuf};
@@ -89,14 +90,15 @@ struct Params {
 }
 
 /// The numerical options a run may change (`--bending-form`, `--gs-transport`,
-/// `--bending-coupling`): [`Settings::bending_form`], [`Settings::gs_transport`] and
-/// [`Settings::bending_coupling`]; the paper's scheme by default, but for the library's
-/// semi-implicit bending.
+/// `--bending-coupling`, `--coupling`): [`Settings::bending_form`], [`Settings::gs_transport`],
+/// [`Settings::bending_coupling`] and [`Settings::traction`]; the paper's scheme by default, but
+/// for the library's semi-implicit bending.
 #[derive(Clone, Copy)]
 struct Numerics {
     bend: BendingForm,
     gs_transport: GsTransport,
     bending_coupling: BendingCoupling,
+    traction: Traction,
 }
 
 const PAPER: Params = Params {
@@ -111,6 +113,7 @@ const PAPER: Params = Params {
         bend: BendingForm::Divergence,
         gs_transport: GsTransport::Paper,
         bending_coupling: BendingCoupling::SemiImplicit { alpha: 1.0 },
+        traction: Traction::Smoothed,
     },
 };
 
@@ -125,11 +128,11 @@ fn run() -> BoxResult<()> {
         bend: BendingForm::from_name(&form)?,
         gs_transport: GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?,
         bending_coupling: args.bending_coupling()?,
+        traction: args.traction("smoothed")?,
     };
     match case.as_str() {
         "single" => {
-            let alphas: String = args.get("alpha", "2,10,40".to_string());
-            let alphas: Vec<f64> = alphas.split(',').map(|a| a.trim().parse()).collect::<Result<_, _>>()?;
+            let alphas: Vec<f64> = args.list("alpha").unwrap_or(vec![2.0, 10.0, 40.0]);
             single(n, args.get("dt", 0.001), args.get("t-end", 2.0), &alphas, numerics, &out)
         }
         "two1" | "two2" => {
@@ -169,6 +172,7 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
             bending_form: p.numerics.bend,
             gs_transport: p.numerics.gs_transport,
             bending_coupling: p.numerics.bending_coupling,
+            traction: p.numerics.traction,
             ..Settings::default()
         })
         .build()
@@ -261,6 +265,7 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], numerics: Numerics, out
             ("volume_drift", num(max_drift)),
             ("failed_at", failed.map_or("none".to_string(), |t| format!("{t:.3}"))),
             ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
+            ("coupling", numerics.traction.name().to_string()),
         ]);
     }
     fig.save(out.join("area.svg"))?;
@@ -509,6 +514,7 @@ fn two(
         ("peak_gs_trace", num(peak_gs[1])),
         ("failed_at", failed.map_or("none".to_string(), |t| format!("{t:.3}"))),
         ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
+        ("coupling", p.numerics.traction.name().to_string()),
     ]);
     Ok(())
 }

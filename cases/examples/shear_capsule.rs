@@ -71,15 +71,15 @@ fn run() -> BoxResult<()> {
         Some(dt) => (dt, Steps::Fixed),
         None => (args.get("max-dt", 0.05), Steps::Adaptive { cfl: args.get("cfl", AdaptiveDt::DEFAULT_CFL) }),
     };
-    let box_radii = match args.opt::<String>("box") {
+    let box_radii = match args.list::<f64>("box") {
         None => ShearCase::PAPER_BOX,
-        Some(text) => {
-            let l: Vec<f64> = text.split(',').map(|s| s.trim().parse()).collect::<Result<_, _>>()?;
-            l.try_into().map_err(|_| format!("--box {text}: three lengths LX,LY,LZ"))?
+        Some(l) => {
+            l.try_into().map_err(|l: Vec<f64>| format!("--box: three lengths LX,LY,LZ, got {}", l.len()))?
         }
     };
     let base = ShearCase { n, ca, eb_prime, lambda, dt, t_end: args.get("t-end", 6.0), steps, box_radii };
     let refdir: Option<std::path::PathBuf> = args.opt("reference");
+    let numerics = Numerics::from_args(&args)?;
     if args.flag("sweep") {
         let mut fig = Figure::new(format!("Taylor deformation, N = {n} (Fig. 10)")).x_label("t").y_label("D");
         let mut csv = CsvWriter::create(
@@ -89,8 +89,8 @@ fn run() -> BoxResult<()> {
         for ca in SWEEP {
             let case = ShearCase { ca, ..base.clone() };
             eprintln!("shear_capsule: Ca = {ca}, N = {n}, {}, t_end = {}", steps_text(&case), case.t_end);
-            let o = simulate(&args, &case, None)?;
-            let (d_ref, rel) = report(&case, &o, refdir.clone(), args.traction(DEFAULT_COUPLING)?);
+            let o = simulate(&numerics, &case, None)?;
+            let (d_ref, rel) = report(&case, &o, refdir.clone(), numerics.traction);
             csv.row(&[ca, n as f64, o.d_steady, o.angle_steady, d_ref, rel, o.wall_s])?;
             let t: Vec<f64> = o.samples.iter().map(|s| s.t).collect();
             fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), &format!("Ca = {ca}"));
@@ -112,7 +112,7 @@ fn run() -> BoxResult<()> {
         base.t_end
     );
     let vtk_every: f64 = args.get("vtk-every", 1.0);
-    let o = simulate(&args, &base, Some((&out, vtk_every))).map_err(|e| {
+    let o = simulate(&numerics, &base, Some((&out, vtk_every))).map_err(|e| {
         format!("{e}\n(the history up to the failure is in {})", out.join("history.csv").display())
     })?;
     let mut fig =
@@ -123,7 +123,7 @@ fn run() -> BoxResult<()> {
     fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), "present (full Eulerian)");
     add_references(&mut fig, refdir.clone(), base.ca, base.eb_prime, false);
     fig.save(out.join("deformation.svg"))?;
-    report(&base, &o, refdir, args.traction(DEFAULT_COUPLING)?);
+    report(&base, &o, refdir, numerics.traction);
     Ok(())
 }
 
@@ -135,38 +135,55 @@ fn steps_text(case: &ShearCase) -> String {
     }
 }
 
-/// Runs one case in the precision the flags ask for.
-fn simulate(args: &Args, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
-    fn settings<T: eulermembrane::Real>(
-        args: &Args,
-        bending_form: BendingForm,
-        gs_transport: GsTransport,
-        bending_coupling: BendingCoupling,
-        traction: Traction,
-    ) -> Settings<T> {
-        let reference_area =
-            if args.flag("conserve-area") { ReferenceArea::Conserved } else { ReferenceArea::Transported };
+/// The numerical choices of the flags, parsed once.
+struct Numerics {
+    bending_form: BendingForm,
+    gs_transport: GsTransport,
+    bending_coupling: BendingCoupling,
+    traction: Traction,
+    reference_area: ReferenceArea,
+    viscous: ViscousScheme,
+    f32: bool,
+}
+
+impl Numerics {
+    fn from_args(args: &Args) -> BoxResult<Self> {
+        let theta: f64 = args.get("viscous-theta", 0.6);
+        Ok(Numerics {
+            bending_form: BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?,
+            gs_transport: GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?,
+            bending_coupling: args.bending_coupling()?,
+            traction: args.traction(DEFAULT_COUPLING)?,
+            reference_area: if args.flag("conserve-area") {
+                ReferenceArea::Conserved
+            } else {
+                ReferenceArea::Transported
+            },
+            viscous: if theta == 0.5 { ViscousScheme::CrankNicolson } else { ViscousScheme::Theta(theta) },
+            f32: args.flag("f32"),
+        })
+    }
+
+    fn settings<T: eulermembrane::Real>(&self) -> Settings<T> {
         let mut s = Settings {
-            gs_transport,
-            reference_area,
-            bending_form,
-            bending_coupling,
-            traction,
+            gs_transport: self.gs_transport,
+            reference_area: self.reference_area,
+            bending_form: self.bending_form,
+            bending_coupling: self.bending_coupling,
+            traction: self.traction,
             ..Settings::default()
         };
-        let theta: f64 = args.get("viscous-theta", 0.6);
-        s.flow.viscous =
-            if theta == 0.5 { ViscousScheme::CrankNicolson } else { ViscousScheme::Theta(theta) };
+        s.flow.viscous = self.viscous;
         s
     }
-    let form = BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?;
-    let transport = GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?;
-    let bending = args.bending_coupling()?;
-    let traction = args.traction(DEFAULT_COUPLING)?;
-    if args.flag("f32") {
-        shear::run::<f32>(case, settings(args, form, transport, bending, traction), 0.05, vtk, false)
+}
+
+/// Runs one case in the precision the flags ask for.
+fn simulate(numerics: &Numerics, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
+    if numerics.f32 {
+        shear::run::<f32>(case, numerics.settings(), 0.05, vtk, false)
     } else {
-        shear::run::<f64>(case, settings(args, form, transport, bending, traction), 0.05, vtk, false)
+        shear::run::<f64>(case, numerics.settings(), 0.05, vtk, false)
     }
 }
 

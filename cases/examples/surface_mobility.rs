@@ -146,15 +146,14 @@ fn settle(
 fn run() -> BoxResult<()> {
     let args = Args::parse(include_str!("surface_mobility.rs"));
     let out = args.out_dir("surface_mobility");
-    let ns: String = args.get("n", "24,32".to_string());
-    let ns: Vec<usize> = ns.split(',').map(|s| s.trim().parse()).collect::<Result<_, _>>()?;
+    let ns: Vec<usize> = args.list("n").unwrap_or(vec![24, 32]);
     let beta: f64 = args.get("beta", 1.0);
     let lambda: f64 = args.get("lambda", 1.0);
     let stokes = StokesL2::with_viscosity_ratio(lambda)?;
     let max_steps: usize = args.get("steps", 4000);
-    let couplings: String = args.get("coupling", "smoothed,sharp".to_string());
+    let couplings: Vec<String> = args.list("coupling").unwrap_or(vec!["smoothed".into(), "sharp".into()]);
     let couplings: Vec<Traction> =
-        couplings.split(',').map(|s| Traction::from_name(s.trim())).collect::<Result<_, _>>()?;
+        couplings.iter().map(|s| Traction::from_name(s)).collect::<Result<_, _>>()?;
     let mut rows: Vec<(Traction, f64, [f64; 3])> = Vec::new();
     for &n in &ns {
         if n < 16 || !n.is_multiple_of(2) {

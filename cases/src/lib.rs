@@ -120,6 +120,21 @@ impl Args {
         })
     }
 
+    /// A comma-separated flag value (`--n 32,64`) parsed as a list of `T`, if given; exits with
+    /// a message naming the flag on a bad item.
+    pub fn list<T: std::str::FromStr>(&self, key: &str) -> Option<Vec<T>> {
+        self.raw(key).map(|text| {
+            text.split(',')
+                .map(|item| {
+                    item.trim().parse().unwrap_or_else(|_| {
+                        eprintln!("error: --{key} {text}: `{}` is not a valid item", item.trim());
+                        std::process::exit(2)
+                    })
+                })
+                .collect()
+        })
+    }
+
     /// Whether a bare flag is present.
     pub fn flag(&self, key: &str) -> bool {
         self.raw(key).is_some()
@@ -274,4 +289,35 @@ pub fn progress_line(first: usize, s: usize, steps: usize, t: f64, clock: &std::
         "  step {s}/{steps} t={t:.3} {extra} ({el:.0} s, ~{:.0} s left)",
         el * (steps - s) as f64 / (s - first).max(1) as f64
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(argv: &[&str]) -> Result<Option<Args>, String> {
+        let help = "Flags: `--n N`, `--box LX,LY,LZ`, `--sweep`.\nRun: `cargo run --release -- --n 8`.";
+        Args::from_list(help, &argv.iter().map(|a| a.to_string()).collect::<Vec<_>>())
+    }
+
+    #[test]
+    fn flags_values_and_lists() {
+        let Ok(Some(a)) = args(&["--n", "64", "--box", "8, 4,16", "--sweep"]) else { panic!("parse failed") };
+        assert_eq!(a.get("n", 32), 64);
+        assert!(a.flag("sweep"));
+        assert_eq!(a.list::<f64>("box"), Some(vec![8.0, 4.0, 16.0]));
+        let Ok(Some(b)) = args(&[]) else { panic!("parse failed") };
+        assert_eq!(b.get("n", 32), 32);
+        assert_eq!(b.list::<f64>("box"), None);
+        assert!(!b.flag("sweep"));
+    }
+
+    #[test]
+    fn unknown_repeated_and_help() {
+        let error = |argv: &[&str]| args(argv).err().unwrap_or_default();
+        assert!(error(&["--release"]).contains("--release"));
+        assert!(error(&["--n", "1", "--n", "2"]).contains("twice"));
+        assert!(error(&["64"]).contains("`64`"));
+        assert!(matches!(args(&["--help"]), Ok(None)));
+    }
 }
