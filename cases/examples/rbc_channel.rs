@@ -27,7 +27,8 @@
 //! state; `peak_gs_normal` and `peak_gs_trace` the largest `|G_s n|` and `tr G_s` over the
 //! membranes and the steps, `diagnostics::gs_tangency`: the first is 0 with `--gs-transport tangential`,
 //! and its growth on the rim next to the walls is what precedes the failure of the paper's
-//! transport). The progress lines print the signature and both as the run goes.
+//! transport). The progress lines print the signature and both as the run goes, with the centre
+//! of the cell where `|G_s n|` is largest.
 //!
 //! `--case many`: `--cells` cells (8) of `a = 0.06` on a lattice, periodic x and y (walls
 //! in z), `mu = 0.5 / 0.1`, `E_s = 0.1`, `alpha = 10`, `E_b = 5e-6`, `dt = 0.00025` (Sec. 3.4.3),
@@ -401,16 +402,20 @@ fn two(
             .collect()
     };
     let list = |v: &[[f64; 2]], which: usize| v.iter().map(|f| num(f[which])).collect::<Vec<_>>().join(",");
-    // How far G_s has left the tangent plane, worst cell over both cells: [max |G_s n|, max tr G_s].
+    // How far G_s has left the tangent plane, worst cell over both cells: [max |G_s n|, max tr G_s]
+    // and the centre of the cell with the largest |G_s n|.
     let eps = sim.settings().epsilon;
-    let tangency = |sim: &Simulation<f64>| -> eulermembrane::Result<[f64; 2]> {
-        let mut worst = [0.0f64; 2];
+    let tangency = |sim: &Simulation<f64>| -> eulermembrane::Result<([f64; 2], [f64; 3])> {
+        let (mut worst, mut at) = ([0.0f64; 2], [f64::NAN; 3]);
         for c in 0..centres.len() {
             let Some(gs) = sim.gs(c)? else { continue };
             let t = gs_tangency(&g, sim.delta(c)?, sim.normal(c)?, gs, eps)?;
+            if t.max_normal > worst[0] {
+                at = t.max_normal_at.map(|i| (i as f64 + 0.5) * L / n as f64);
+            }
             worst = [worst[0].max(t.max_normal), worst[1].max(t.max_trace)];
         }
-        Ok(worst)
+        Ok((worst, at))
     };
     let mut peak_gs = [0.0f64; 2];
     let mut failed = None;
@@ -424,7 +429,7 @@ fn two(
                 snaps.push((t_before, phis(&sim)?));
                 break;
             }
-            let gs_now = tangency(&sim)?;
+            let (gs_now, gs_at) = tangency(&sim)?;
             peak_gs = [peak_gs[0].max(gs_now[0]), peak_gs[1].max(gs_now[1])];
             let due = if run.progress_every > 0.0 {
                 sim.time() >= next_progress - 1e-9 || s == steps
@@ -437,10 +442,14 @@ fn two(
                 let short = |w: usize| f.iter().map(|f| format!("{:.4}", f[w])).collect::<Vec<_>>().join(",");
                 let x1 = sim.centroid(0)?[0];
                 let line = format!(
-                    "x1={x1:.3} rear_concavity={} front_convexity={} gs_normal={:.3} gs_trace={:.3}",
+                    "x1={x1:.3} rear_concavity={} front_convexity={} gs_normal={:.3} at ({:.3},{:.3},{:.3}) \
+                     gs_trace={:.3}",
                     short(0),
                     short(1),
                     gs_now[0],
+                    gs_at[0],
+                    gs_at[1],
+                    gs_at[2],
                     gs_now[1]
                 );
                 common::progress_line(first, s, steps, sim.time(), &clock, &line);

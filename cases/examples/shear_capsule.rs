@@ -2,7 +2,9 @@
 //! compared with boundary-element results (Ramanujan & Pozrikidis 1998, Pozrikidis 1995/2001,
 //! Le 2010) from `shared/reference`. The set-up is in `cases/src/shear.rs`.
 //!
-//! Prints progress; writes into `--out` the history `history.csv` (t, D, angle, area, volume
+//! Prints progress (D, angle, area, predictor iterations, dt, the step's Courant number, the
+//! retried steps since the last line and the last `StepWarning`, e.g. a sudden growth of
+//! `max|v|`); writes into `--out` the history `history.csv` (t, D, angle, area, volume
 //! drift, predictor iterations, dt; written as the run goes, so a failed run leaves it), the plot
 //! `deformation.svg` of `D(t)` with the reference curves (like Fig. 10, or Fig. 11 with bending),
 //! ParaView snapshots (`shear.pvd`); ends with `RESULT ca=... n=... d_steady=... angle_deg=...

@@ -235,6 +235,8 @@ pub fn run<T: Real>(
     let clock = Instant::now();
     let cpu0 = super::cpu_seconds();
     let (mut iterations, mut dt, mut s) = (0, 0.0, 0usize);
+    // The last step's Courant number, and the retries and warnings since the last progress line.
+    let (mut courant, mut retries, mut warned) = (0.0, 0usize, None);
     loop {
         let t = sim.time().f64();
         // Whether to sample, and whether this is the last step (fixed steps know it, adaptive
@@ -287,14 +289,19 @@ pub fn run<T: Real>(
             Steps::Adaptive { .. } => expected,
         }
         .max(s);
-        if !quiet && s > 0 {
+        if !quiet && s > 0 && super::progress_due(s, total) {
             let last = samples.last().expect("sampled at step 0");
             // The last sample may be up to `sample_every` older than the step: say when.
             let extra = format!(
-                "D={:.4} angle={:.1} area={:.4} (sampled at t={:.3}) iters={iterations} dt={dt:.2e}",
+                "D={:.4} angle={:.1} area={:.4} (sampled at t={:.3}) iters={iterations} dt={dt:.2e} \
+                 courant={courant:.3} retries={retries}",
                 last.d, last.angle_deg, last.area_ratio, last.t
             );
             super::progress(s, total, t, &clock, &extra);
+            if let Some((at, w)) = warned.take() {
+                eprintln!("  warning (last at t={at:.4}): {w}");
+            }
+            retries = 0;
         }
         if let Some(h) = history.as_mut()
             && super::progress_due(s, total)
@@ -305,6 +312,11 @@ pub fn run<T: Real>(
         s += 1;
         iterations = report.flow.predictor_iterations;
         dt = report.flow.dt;
+        courant = report.flow.cfl;
+        retries += report.retries;
+        if let Some(w) = report.warning {
+            warned = Some((sim.time().f64(), w));
+        }
     }
     if let Some(h) = history {
         h.finish()?;
