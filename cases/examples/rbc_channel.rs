@@ -44,7 +44,9 @@
 //! (`Settings::bending_coupling`, default semi-implicit; the paper's and the figures of
 //! `docs/validation/red_cells.md` are explicit; `--bending-alpha`, 1),
 //! `--coupling smoothed|sharp` (`Settings::traction`, default the paper's `smoothed`; the key
-//! `coupling` of the `single` and `two` RESULT lines), `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
+//! `coupling` of the `single` and `two` RESULT lines), `--epsilon E` (`Settings::epsilon`, the
+//! band `delta h >= E` outside which `G_s` is re-set to `P`; 0.01, the paper's range being
+//! 0.01-0.1), `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
 //! Long runs (`two1`, `two2`): `--progress-every T` prints a progress line every `T` time units
 //! (default: every twentieth of the run); `--checkpoint-every T` writes the whole state to
@@ -100,6 +102,8 @@ struct Numerics {
     gs_transport: GsTransport,
     bending_coupling: BendingCoupling,
     traction: Traction,
+    /// `Settings::epsilon`, the band of `delta h >= epsilon`.
+    epsilon: f64,
 }
 
 const PAPER: Params = Params {
@@ -115,6 +119,7 @@ const PAPER: Params = Params {
         gs_transport: GsTransport::Paper,
         bending_coupling: BendingCoupling::SemiImplicit { alpha: 1.0 },
         traction: Traction::Smoothed,
+        epsilon: 0.01,
     },
 };
 
@@ -130,6 +135,7 @@ fn run() -> BoxResult<()> {
         gs_transport: GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?,
         bending_coupling: args.bending_coupling()?,
         traction: args.traction("smoothed")?,
+        epsilon: args.get("epsilon", PAPER.numerics.epsilon),
     };
     match case.as_str() {
         "single" => {
@@ -174,6 +180,7 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
             gs_transport: p.numerics.gs_transport,
             bending_coupling: p.numerics.bending_coupling,
             traction: p.numerics.traction,
+            epsilon: p.numerics.epsilon,
             ..Settings::default()
         })
         .build()
