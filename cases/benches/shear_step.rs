@@ -1,5 +1,6 @@
 //! One step of the shear capsule of Sec. 3.3 at 16 cells per radius (`N = 128`, a 128 x 64 x 128
-//! box, Ca = 0.05, default settings): the step `shear_capsule --n 128` takes about 1270 times.
+//! box, Ca = 0.05, default settings) with each membrane coupling (`Settings::traction`): the step
+//! `shear_capsule --n 128` takes about 1270 times (the sharp one; `--coupling smoothed` the other).
 //! The capsule is first run to `t = 0.2` (43 steps of the adaptive step, so that the membrane
 //! is loaded and the solvers start from a developed flow); every measured step then has
 //! `dt = 0.0047`, the step the adaptive control chooses in that run.
@@ -12,7 +13,7 @@ mod common;
 
 use common::CpuTime;
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use eulermembrane::simulation::{AdaptiveDt, Settings};
+use eulermembrane::simulation::{AdaptiveDt, Settings, Traction};
 use eulermembrane_cases::shear::{self, ShearCase, Steps};
 use std::time::Duration;
 
@@ -28,15 +29,6 @@ fn shear_step(c: &mut Criterion<CpuTime>) {
         steps: Steps::Adaptive { cfl: 0.3 },
         box_radii: ShearCase::PAPER_BOX,
     };
-    let mut sim = shear::build::<f64>(&case, Settings::default()).expect("shear scene");
-    let mut control = AdaptiveDt::new(case.dt).expect("adaptive dt");
-    sim.run_with(case.t_end, &mut control, &mut []).expect("developed state");
-    let dt = 0.0047;
-    let report = sim.step(dt).expect("step");
-    eprintln!(
-        "shear N = {n}: {} band cells, {} predictor and {} pressure iterations",
-        report.band_cells, report.flow.predictor_iterations, report.flow.poisson_iterations
-    );
     let mut group = c.benchmark_group("shear_step");
     group
         .throughput(Throughput::Elements((n * n * n / 2) as u64))
@@ -44,7 +36,24 @@ fn shear_step(c: &mut Criterion<CpuTime>) {
         .sample_size(10)
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(12));
-    group.bench_function("n128_ca0.05", |b| b.iter(|| sim.step(dt).expect("step")));
+    for traction in Traction::ALL {
+        let settings = Settings { traction, ..Settings::default() };
+        let mut sim = shear::build::<f64>(&case, settings).expect("shear scene");
+        let mut control = AdaptiveDt::new(case.dt).expect("adaptive dt");
+        sim.run_with(case.t_end, &mut control, &mut []).expect("developed state");
+        let dt = 0.0047;
+        let report = sim.step(dt).expect("step");
+        eprintln!(
+            "shear N = {n}, {}: {} band cells, {} predictor and {} pressure iterations",
+            traction.name(),
+            report.band_cells,
+            report.flow.predictor_iterations,
+            report.flow.poisson_iterations
+        );
+        group.bench_function(format!("n128_ca0.05_{}", traction.name()), |b| {
+            b.iter(|| sim.step(dt).expect("step"))
+        });
+    }
     group.finish();
 }
 
