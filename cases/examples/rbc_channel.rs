@@ -418,7 +418,8 @@ fn two(
             let Some(gs) = sim.gs(c)? else { continue };
             let t = gs_tangency(&g, sim.delta(c)?, sim.normal(c)?, gs, eps)?;
             if t.max_normal > worst[0] {
-                at = t.max_normal_at.map(|i| (i as f64 + 0.5) * L / n as f64);
+                let [i, j, k] = t.max_normal_at.map(|i| i as isize);
+                at = g.cell_center(i, j, k);
             }
             worst = [worst[0].max(t.max_normal), worst[1].max(t.max_trace)];
         }

@@ -101,38 +101,18 @@ impl Args {
 
     /// A flag's value parsed as `T`, or `default`; exits with a message on a bad value.
     pub fn get<T: std::str::FromStr>(&self, key: &str, default: T) -> T {
-        match self.raw(key) {
-            None => default,
-            Some(v) => v.parse().unwrap_or_else(|_| {
-                eprintln!("error: --{key} {v}: not a valid value");
-                std::process::exit(2)
-            }),
-        }
+        self.opt(key).unwrap_or(default)
     }
 
-    /// A flag's value if given.
+    /// A flag's value if given; exits with a message on a bad value.
     pub fn opt<T: std::str::FromStr>(&self, key: &str) -> Option<T> {
-        self.raw(key).map(|v| {
-            v.parse().unwrap_or_else(|_| {
-                eprintln!("error: --{key} {v}: not a valid value");
-                std::process::exit(2)
-            })
-        })
+        self.raw(key).map(|v| parse_or_exit(key, v, v))
     }
 
     /// A comma-separated flag value (`--n 32,64`) parsed as a list of `T`, if given; exits with
     /// a message naming the flag on a bad item.
     pub fn list<T: std::str::FromStr>(&self, key: &str) -> Option<Vec<T>> {
-        self.raw(key).map(|text| {
-            text.split(',')
-                .map(|item| {
-                    item.trim().parse().unwrap_or_else(|_| {
-                        eprintln!("error: --{key} {text}: `{}` is not a valid item", item.trim());
-                        std::process::exit(2)
-                    })
-                })
-                .collect()
-        })
+        self.raw(key).map(|text| text.split(',').map(|item| parse_or_exit(key, text, item.trim())).collect())
     }
 
     /// Whether a bare flag is present.
@@ -171,6 +151,19 @@ impl Args {
         }
         dir
     }
+}
+
+/// `item` (of the value `text` of flag `--key`) parsed as `T`; exits with status 2 and a message
+/// naming the flag where it is not one.
+fn parse_or_exit<T: std::str::FromStr>(key: &str, text: &str, item: &str) -> T {
+    item.parse().unwrap_or_else(|_| {
+        if item == text {
+            eprintln!("error: --{key} {text}: not a valid value");
+        } else {
+            eprintln!("error: --{key} {text}: `{item}` is not a valid item");
+        }
+        std::process::exit(2)
+    })
 }
 
 /// The leading `//!` lines of an example's source, without the markers.
