@@ -36,6 +36,7 @@
 //! `--coupling sharp|smoothed` (`Settings::traction`, default `sharp`: it holds the membrane's
 //! reference area and cuts the overshoot at 8 cells per radius to a third; `smoothed` is the
 //! paper's and `Settings::default()`'s),
+//! `--epsilon E` (`Settings::epsilon`, the band `delta h >= E`; 0.01),
 //! `--box LX,LY,LZ` (the box in radii, `8,4,8`: the paper's; each a multiple of `8/N`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
@@ -145,6 +146,7 @@ struct Numerics {
     traction: Traction,
     reference_area: ReferenceArea,
     viscous: ViscousScheme,
+    epsilon: f64,
     f32: bool,
 }
 
@@ -162,6 +164,7 @@ impl Numerics {
                 ReferenceArea::Transported
             },
             viscous: if theta == 0.5 { ViscousScheme::CrankNicolson } else { ViscousScheme::Theta(theta) },
+            epsilon: args.get("epsilon", 0.01),
             f32: args.flag("f32"),
         })
     }
@@ -173,6 +176,7 @@ impl Numerics {
             bending_form: self.bending_form,
             bending_coupling: self.bending_coupling,
             traction: self.traction,
+            epsilon: T::lit(self.epsilon),
             ..Settings::default()
         };
         s.flow.viscous = self.viscous;
