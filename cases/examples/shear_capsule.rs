@@ -36,7 +36,8 @@
 //! `--coupling sharp|smoothed` (`Settings::traction`, default `sharp`: it holds the membrane's
 //! reference area and cuts the overshoot at 8 cells per radius to a third; `smoothed` is the
 //! paper's and `Settings::default()`'s),
-//! `--epsilon E` (`Settings::epsilon`, the band `delta h >= E`; 0.01),
+//! `--epsilon E` (`Settings::epsilon`, the band `delta h >= E`; 0.01), `--beta B` (the MTHINC
+//! sharpness of the profile, `Settings::advection` and `Settings::smoothing`; 1),
 //! `--box LX,LY,LZ` (the box in radii, `8,4,8`: the paper's; each a multiple of `8/N`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
@@ -147,6 +148,7 @@ struct Numerics {
     reference_area: ReferenceArea,
     viscous: ViscousScheme,
     epsilon: f64,
+    beta: f64,
     f32: bool,
 }
 
@@ -165,6 +167,7 @@ impl Numerics {
             },
             viscous: if theta == 0.5 { ViscousScheme::CrankNicolson } else { ViscousScheme::Theta(theta) },
             epsilon: args.get("epsilon", 0.01),
+            beta: args.get("beta", 1.0),
             f32: args.flag("f32"),
         })
     }
@@ -180,6 +183,8 @@ impl Numerics {
             ..Settings::default()
         };
         s.flow.viscous = self.viscous;
+        s.advection.beta = T::lit(self.beta);
+        s.smoothing.beta = self.beta;
         s
     }
 }
