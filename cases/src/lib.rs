@@ -106,13 +106,14 @@ impl Args {
 
     /// A flag's value if given; exits with a message on a bad value.
     pub fn opt<T: std::str::FromStr>(&self, key: &str) -> Option<T> {
-        self.raw(key).map(|v| parse_or_exit(key, v, v))
+        self.raw(key).map(|v| parse_or_exit(key, v, None))
     }
 
     /// A comma-separated flag value (`--n 32,64`) parsed as a list of `T`, if given; exits with
     /// a message naming the flag on a bad item.
     pub fn list<T: std::str::FromStr>(&self, key: &str) -> Option<Vec<T>> {
-        self.raw(key).map(|text| text.split(',').map(|item| parse_or_exit(key, text, item.trim())).collect())
+        self.raw(key)
+            .map(|text| text.split(',').map(|item| parse_or_exit(key, text, Some(item.trim()))).collect())
     }
 
     /// Whether a bare flag is present.
@@ -153,14 +154,13 @@ impl Args {
     }
 }
 
-/// `item` (of the value `text` of flag `--key`) parsed as `T`; exits with status 2 and a message
-/// naming the flag where it is not one.
-fn parse_or_exit<T: std::str::FromStr>(key: &str, text: &str, item: &str) -> T {
-    item.parse().unwrap_or_else(|_| {
-        if item == text {
-            eprintln!("error: --{key} {text}: not a valid value");
-        } else {
-            eprintln!("error: --{key} {text}: `{item}` is not a valid item");
+/// The value `text` of flag `--key`, or its list item `item`, parsed as `T`; exits with status 2
+/// and a message naming the flag (and the item) where it is not one.
+fn parse_or_exit<T: std::str::FromStr>(key: &str, text: &str, item: Option<&str>) -> T {
+    item.unwrap_or(text).parse().unwrap_or_else(|_| {
+        match item {
+            None => eprintln!("error: --{key} {text}: not a valid value"),
+            Some(item) => eprintln!("error: --{key} {text}: `{item}` is not a valid item"),
         }
         std::process::exit(2)
     })
