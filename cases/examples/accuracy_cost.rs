@@ -123,11 +123,9 @@ impl ShearJob {
             }
             Solver::Sor(tolerance) => PredictorSolver::Sor(SorParams { tolerance, ..Default::default() }),
         };
-        s.advection.beta = T::lit(self.beta);
-        s.smoothing.beta = self.beta;
         s.epsilon = T::lit(self.epsilon);
         s.traction = self.traction;
-        s
+        s.with_beta(T::lit(self.beta))
     }
 
     fn describe(&self) -> String {

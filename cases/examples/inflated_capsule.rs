@@ -12,7 +12,8 @@
 //! laws) and `pressure.svg`.
 //!
 //! Flags: `--n` (64: 16 cells per radius), `--lambda` (1.05), `--steps` (40), `--dt` (`h / 4`),
-//! `--coupling smoothed|sharp` (`Settings::traction`, smoothed), `--out DIR`
+//! `--coupling smoothed|sharp` (`Settings::traction`, smoothed), `--beta B` (1, the MTHINC
+//! sharpness of the profile, `Settings::with_beta`), `--out DIR`
 //! (`out/inflated_capsule`).
 //!
 //! Run: `cargo run --release --example inflated_capsule`.
@@ -23,7 +24,7 @@ use common::{Args, BoxResult, num, result};
 use eulermembrane::grid::Grid;
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw, equibiaxial_tension};
-use eulermembrane::simulation::{Phase, Scene, Settings, Traction};
+use eulermembrane::simulation::{Phase, Scene, Settings};
 use eulermembrane_cases::csv::write_columns;
 use eulermembrane_cases::plot::Figure;
 use std::time::Instant;
@@ -53,8 +54,9 @@ fn run() -> BoxResult<()> {
         n / 4
     );
     let traction = args.traction("smoothed")?;
-    let neo = simulate(NeoHookean::new(1.0)?, n, lambda, steps, dt, traction, "neo_hookean")?;
-    let skalak = simulate(Skalak::new(1.0, 1.0)?, n, lambda, steps, dt, traction, "skalak")?;
+    let settings = Settings { traction, ..Settings::default() }.with_beta(args.get("beta", 1.0));
+    let neo = simulate(NeoHookean::new(1.0)?, n, lambda, steps, dt, settings, "neo_hookean")?;
+    let skalak = simulate(Skalak::new(1.0, 1.0)?, n, lambda, steps, dt, settings, "skalak")?;
     let x: Vec<f64> = (0..n).map(|i| -2.0 + (i as f64 + 0.5) * h).collect();
     write_columns(
         out.join("pressure.csv"),
@@ -86,7 +88,7 @@ fn simulate(
     lambda: f64,
     steps: usize,
     dt: f64,
-    traction: Traction,
+    settings: Settings<f64>,
     name: &str,
 ) -> BoxResult<Outcome> {
     let grid = Grid::periodic([n; 3], [-2.0; 3], [2.0; 3])?;
@@ -95,7 +97,7 @@ fn simulate(
     let mut sim = Scene::new(grid, Phase::new(1.0, mu)?)
         .capsule(Sphere::new([0.0; 3], 1.0)?)
         .elasticity(law)
-        .settings(Settings { traction, ..Settings::default() })
+        .settings(settings)
         .build()?;
     sim.prestretch(0, lambda)?;
     let clock = Instant::now();

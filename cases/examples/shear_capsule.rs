@@ -37,7 +37,7 @@
 //! reference area and cuts the overshoot at 8 cells per radius to a third; `smoothed` is the
 //! paper's and `Settings::default()`'s),
 //! `--epsilon E` (`Settings::epsilon`, the band `delta h >= E`; 0.01), `--beta B` (the MTHINC
-//! sharpness of the profile, `Settings::advection` and `Settings::smoothing`; 1),
+//! sharpness of the profile, `Settings::with_beta`; 1),
 //! `--box LX,LY,LZ` (the box in radii, `8,4,8`: the paper's; each a multiple of `8/N`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
@@ -183,9 +183,7 @@ impl Numerics {
             ..Settings::default()
         };
         s.flow.viscous = self.viscous;
-        s.advection.beta = T::lit(self.beta);
-        s.smoothing.beta = self.beta;
-        s
+        s.with_beta(T::lit(self.beta))
     }
 }
 

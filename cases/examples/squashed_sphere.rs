@@ -34,7 +34,7 @@
 //! (0.881, 0.889).
 //!
 //! Flags: `--n N` (64), `--dt` (`0.02 (16/N)^2`), `--t-end T` (2), `--gamma G` (4), `--epsilon E`
-//! (0.01, the membrane band `delta h >= E`), `--beta B` (1, MTHINC sharpness),
+//! (0.01, the membrane band `delta h >= E`), `--beta B` (1, `Settings::with_beta`),
 //! `--gs-transport tangential|paper|frame|both` (tangential; `energy_err` at N = 64 to `t` =
 //! 0.7: 4.50e-3 tangential, 1.21e-2 paper, 8.73e-3 frame, 1.61e-3 both), `--conserve-area`
 //! (`ReferenceArea::Conserved`), `--linear-load` (the load profile
@@ -83,9 +83,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
 
 /// The numerical settings from the flags (also used by `--convergence`).
 fn settings(args: &Args) -> Result<Settings<f64>, Box<dyn std::error::Error>> {
-    let mut settings = Settings::<f64>::default();
+    let mut settings = Settings::<f64>::default().with_beta(args.get("beta", 1.0));
     settings.epsilon = args.get("epsilon", settings.epsilon);
-    settings.advection.beta = args.get("beta", settings.advection.beta);
     // The example's default is the projection (see the file docs); the library's is the paper's.
     settings.gs_transport = GsTransport::from_name(&args.get("gs-transport", "tangential".to_string()))?;
     settings.traction = args.traction("smoothed")?;

@@ -70,9 +70,7 @@ fn scene(
     mode: fn([f64; 3]) -> [f64; 3],
 ) -> eulermembrane::Result<Simulation<f64>> {
     let grid = Grid::new([n; 3], [-HALF; 3], [HALF; 3], [[Boundary::Periodic; 2]; 3])?;
-    let mut settings = Settings { traction, ..Settings::default() };
-    settings.advection.beta = beta;
-    settings.smoothing.beta = beta;
+    let settings = Settings { traction, ..Settings::default() }.with_beta(beta);
     Scene::new(grid, Phase::new(1.0, MU)?)
         .inside(Phase::new(1.0, lambda * MU)?)
         .capsule(Sphere::new([0.0; 3], 1.0)?)

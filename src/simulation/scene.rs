@@ -279,6 +279,27 @@ impl<T: Real> Default for Settings<T> {
     }
 }
 
+impl<T: Real> Settings<T> {
+    /// These settings with the profile sharpness `beta` (`beta' = beta / h`, (2.42)) in both
+    /// places it enters: the initial shapes' [`smoothing`](Settings::smoothing) and the
+    /// MTHINC transport's [`advection`](Settings::advection) (a capsule built with one and
+    /// carried with another relaxes to the second in its first steps). Checked by
+    /// [`Scene::build`] like the fields themselves.
+    ///
+    /// ```
+    /// use eulermembrane::simulation::Settings;
+    ///
+    /// let s = Settings::<f64>::default().with_beta(2.0);
+    /// assert_eq!((s.advection.beta, s.smoothing.beta), (2.0, 2.0));
+    /// ```
+    #[must_use]
+    pub fn with_beta(mut self, beta: T) -> Self {
+        self.advection.beta = beta;
+        self.smoothing.beta = beta.f64();
+        self
+    }
+}
+
 /// A scene: the box, the fluids, the capsules and the effects to simulate. Build it with the
 /// chained setters, then [`build`](Scene::build) a [`Simulation`].
 ///
