@@ -7,7 +7,8 @@
 //! `--alpha` (2,10,40) to `--t-end` (2): the surface area by (3.7) and by `sum delta h^3`
 //! (`area_alpha*.csv`, `area.svg` like Fig. 12), the x-z section at `y = 0.25` at the end
 //! (`sections.svg`, Fig. 13); a line per alpha `RESULT alpha=... max_area_change=...
-//! max_area_change_delta=... volume_drift=... failed_at=...` (largest `|s/s0 - 1|` of the
+//! max_area_change_delta=... volume_drift=... failed_at=... wall_s=... coupling=...
+//! gs_transport=... epsilon=...` (largest `|s/s0 - 1|` of the
 //! (3.7) area and of `sum delta h^3`; the time of a failed step, if one failed: the run of that
 //! alpha then stops and the next alpha runs).
 //!
@@ -22,7 +23,8 @@
 //! parachute has both positive. `rear_concavity_span` is the first, measured along z instead
 //! (the flow does not vary along z):
 //! `RESULT case=... n=... t=... rear_concavity=... front_convexity=... rear_concavity_span=...
-//! volume_drift=... peak_gs_normal=... peak_gs_trace=... failed_at=... wall_s=...`
+//! volume_drift=... peak_gs_normal=... peak_gs_trace=... failed_at=... wall_s=... coupling=...
+//! gs_transport=... epsilon=...`
 //! (`t` the time reached; a failed step ends the run there, and the figures show the last good
 //! state; `peak_gs_normal` and `peak_gs_trace` the largest `|G_s n|` and `tr G_s` over the
 //! membranes and the steps, `diagnostics::gs_tangency`: the first is 0 with `--gs-transport tangential`,
@@ -104,6 +106,18 @@ struct Numerics {
     traction: Traction,
     /// `Settings::epsilon`, the band of `delta h >= epsilon`.
     epsilon: f64,
+}
+
+impl Numerics {
+    /// The RESULT keys of the choices a run's figures depend on most: `coupling`,
+    /// `gs_transport` and `epsilon`.
+    fn keys(&self) -> [(&'static str, String); 3] {
+        [
+            ("coupling", self.traction.name().to_string()),
+            ("gs_transport", self.gs_transport.name().to_string()),
+            ("epsilon", self.epsilon.to_string()),
+        ]
+    }
 }
 
 const PAPER: Params = Params {
@@ -265,7 +279,7 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], numerics: Numerics, out
         csv.finish()?;
         area_lines(&mut fig, &format!("alpha = {alpha}"), &t, &s37, &sdelta);
         sections.segments(section(&g, sim.phi(0)?, 1, 0.25), &format!("alpha = {alpha}"));
-        lines.push(vec![
+        let mut line = vec![
             ("alpha", alpha.to_string()),
             ("n", n.to_string()),
             ("max_area_change", num(max_change)),
@@ -273,8 +287,9 @@ fn single(n: usize, dt: f64, t_end: f64, alphas: &[f64], numerics: Numerics, out
             ("volume_drift", num(max_drift)),
             ("failed_at", failed.map_or("none".to_string(), |t| format!("{t:.3}"))),
             ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
-            ("coupling", numerics.traction.name().to_string()),
-        ]);
+        ];
+        line.extend(numerics.keys());
+        lines.push(line);
     }
     fig.save(out.join("area.svg"))?;
     sections.save(out.join("sections.svg"))?;
@@ -519,7 +534,7 @@ fn two(
     pf.line(&y, &without, "without cells");
     pf.save(out.join(format!("{case}_profile.svg")))?;
     let (wall, span) = (shapes(&sim, p.wall_axis)?, shapes(&sim, span_axis)?);
-    result(&[
+    let mut line = vec![
         ("case", case.to_string()),
         ("n", n.to_string()),
         ("t", format!("{:.3}", sim.time())),
@@ -531,8 +546,9 @@ fn two(
         ("peak_gs_trace", num(peak_gs[1])),
         ("failed_at", failed.map_or("none".to_string(), |t| format!("{t:.3}"))),
         ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
-        ("coupling", p.numerics.traction.name().to_string()),
-    ]);
+    ];
+    line.extend(p.numerics.keys());
+    result(&line);
     Ok(())
 }
 
