@@ -30,7 +30,7 @@
 //! membranes and the steps, `diagnostics::gs_tangency`: the first is 0 with `--gs-transport tangential`,
 //! and its growth on the rim next to the walls is what precedes the failure of the paper's
 //! transport). The progress lines print the signature and both as the run goes, with the centre
-//! of the cell where `|G_s n|` is largest.
+//! of the cell where `|G_s n|` is largest and `phi` there (which layer of the band it is).
 //!
 //! `--case many`: `--cells` cells (8) of `a = 0.06` on a lattice, periodic x and y (walls
 //! in z), `mu = 0.5 / 0.1`, `E_s = 0.1`, `alpha = 10`, `E_b = 5e-6`, `dt = 0.00025` (Sec. 3.4.3),
@@ -425,16 +425,18 @@ fn two(
     };
     let list = |v: &[[f64; 2]], which: usize| v.iter().map(|f| num(f[which])).collect::<Vec<_>>().join(",");
     // How far G_s has left the tangent plane, worst cell over both cells: [max |G_s n|, max tr G_s]
-    // and the centre of the cell with the largest |G_s n|.
+    // and the centre of the cell with the largest |G_s n| and its phi.
     let eps = sim.settings().epsilon;
-    let tangency = |sim: &Simulation<f64>| -> eulermembrane::Result<([f64; 2], [f64; 3])> {
-        let (mut worst, mut at) = ([0.0f64; 2], [f64::NAN; 3]);
+    let tangency = |sim: &Simulation<f64>| -> eulermembrane::Result<([f64; 2], [f64; 4])> {
+        let (mut worst, mut at) = ([0.0f64; 2], [f64::NAN; 4]);
         for c in 0..centres.len() {
             let Some(gs) = sim.gs(c)? else { continue };
             let t = gs_tangency(&g, sim.delta(c)?, sim.normal(c)?, gs, eps)?;
             if t.max_normal > worst[0] {
                 let [i, j, k] = t.max_normal_at.map(|i| i as isize);
-                at = g.cell_center(i, j, k);
+                let xc = g.cell_center(i, j, k);
+                let ph = sim.phi(c)?.at(&g, i, j, k);
+                at = [xc[0], xc[1], xc[2], ph];
             }
             worst = [worst[0].max(t.max_normal), worst[1].max(t.max_trace)];
         }
@@ -465,7 +467,7 @@ fn two(
                 let short = |w: usize| f.iter().map(|f| format!("{:.4}", f[w])).collect::<Vec<_>>().join(",");
                 let x1 = sim.centroid(0)?[0];
                 let line = format!(
-                    "x1={x1:.3} rear_concavity={} front_convexity={} gs_normal={:.3} at ({:.3},{:.3},{:.3}) \
+                    "x1={x1:.3} rear_concavity={} front_convexity={} gs_normal={:.3} at ({:.3},{:.3},{:.3}) phi={:.3} \
                      gs_trace={:.3}",
                     short(0),
                     short(1),
@@ -473,6 +475,7 @@ fn two(
                     gs_at[0],
                     gs_at[1],
                     gs_at[2],
+                    gs_at[3],
                     gs_now[1]
                 );
                 common::progress_line(first, s, steps, sim.time(), &clock, &line);
