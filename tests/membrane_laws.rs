@@ -150,18 +150,9 @@ proptest! {
 // Barthès-Biesel, Diaz & Dhenin (2002): uniaxial tension T1/G_s against e1 = (λ1² − 1)/2
 // ---------------------------------------------------------------------------------------------
 
-/// Locates `shared/reference/uniaxial_stretch/<file>`: beside the checkout (CI, and the main
-/// checkout), or two levels up (a git worktree under `wt/`).
+/// `cases/reference/uniaxial_stretch/<file>` of the checkout (the workspace's reference data).
 fn reference_file(file: &str) -> PathBuf {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let candidates = [root.join("../shared"), root.join("shared"), root.join("../../shared")];
-    for c in &candidates {
-        let p = c.join("reference/uniaxial_stretch").join(file);
-        if p.is_file() {
-            return p;
-        }
-    }
-    panic!("reference data {file} not found under {candidates:?} (expected shared/ beside the checkout)");
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("cases/reference/uniaxial_stretch").join(file)
 }
 
 fn read_points(file: &str) -> Vec<(f64, f64)> {
@@ -177,7 +168,7 @@ fn read_points(file: &str) -> Vec<(f64, f64)> {
 }
 
 /// `(e1, published T1/G_s, model T1/G_s)` for one law with `G_s = 1`, the model by the generic
-/// solver. Conventions (shared/reference/README.md): neo-Hookean `E_s = 3 G_s`; Skalak
+/// solver. Conventions (cases/reference/README.md): neo-Hookean `E_s = 3 G_s`; Skalak
 /// `G_s = E_s/2` and `C = α = 1` (module docs of `membrane::law` for the derivation).
 fn compare(file: &str, law: &dyn SurfaceLaw<f64>) -> Vec<(f64, f64, f64)> {
     read_points(file)

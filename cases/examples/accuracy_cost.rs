@@ -25,7 +25,7 @@
 //!
 //! The shear error is `|<D>_w - <D_ref>_w| / <D_ref>_w`, the means over the window
 //! `t in [2, 3]` (runs end at `t = 3`) of the present `D(t)` and of the boundary-element curve of
-//! Ramanujan & Pozrikidis (1998) interpolated at the same times (`shared/reference`). Runs to the
+//! Ramanujan & Pozrikidis (1998) interpolated at the same times (`cases/reference`). Runs to the
 //! steady state cost about ten times more; the window is past the overshoot, where the
 //! reference is within 1 % of its late-time value 0.261.
 //!
@@ -37,8 +37,8 @@
 //! against CPU seconds, log-log, Pareto front dashed), `shear_all.svg` (every shear run),
 //! `recommendation.md`, and `runs.log` (one line per finished run, as they finish). Ends with
 //! `RESULT best_err=... cpu_s_5pct=... cpu_s_10pct=... cpu_s_20pct=... runs=... failed=...`
-//! (NaN where no run reached the target). `--reference DIR`: the `shared/reference` folder, if
-//! it is not beside the checkout.
+//! (NaN where no run reached the target). `--reference DIR`: another folder laid out as
+//! `cases/reference`.
 //!
 //! Run: `cargo run --release --example accuracy_cost -- --study all --jobs 2`.
 

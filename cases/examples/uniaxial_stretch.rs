@@ -15,7 +15,7 @@
 //! 3. against the points digitised from Barthès-Biesel, Diaz & Dhenin, J. Fluid Mech. 460
 //!    (2002), for neo-Hookean and Skalak with area-dilation coefficient `C = 1`.
 //!
-//! Conventions (shared/reference/README.md): neo-Hookean `E_s = 3 G_s`; Skalak `G_s = E_s/2`
+//! Conventions (cases/reference/README.md): neo-Hookean `E_s = 3 G_s`; Skalak `G_s = E_s/2`
 //! and `C = α` (eq. (2.6) is exactly `(G_s/4)(I1² + 2 I1 − 2 I2 + C I2²)`), so `α = 1`.
 //! Here `G_s = 1`.
 //!
@@ -23,7 +23,7 @@
 //! [--reference DIR]`. `--n` is the number of samples on each model curve (default 200);
 //! `--out` (default `out/uniaxial_stretch`) receives `model_curves.csv`,
 //! `bb2002_comparison.csv` and `uniaxial_stretch.svg`; `--reference` is the folder holding
-//! `uniaxial_stretch/*.csv` (default: `shared/reference` found beside the checkout).
+//! `uniaxial_stretch/*.csv` (default: `cases/reference`).
 //!
 //! The last line is `RESULT max_rel_err_neo_hookean=… max_rel_err_skalak=…
 //! max_rel_err_bb2002=…`: the first two are the largest relative differences between the

@@ -16,7 +16,7 @@
 //!   stability suite);
 //! - at the crate root, what every example's `main` uses: its flags ([`Args`], read from the
 //!   example's own header), the `RESULT` line ([`result`], [`num`]), progress lines, CPU time and
-//!   the `shared/reference` folder.
+//!   the reference data folder `cases/reference` ([`reference_dir`]).
 #![warn(missing_docs)]
 
 use std::collections::HashMap;
@@ -212,23 +212,16 @@ pub fn num(x: f64) -> String {
     format!("{x:.4e}")
 }
 
-/// The folder `sub` of `shared/reference` beside the checkout (CI and the main checkout) or two
-/// levels up (a git worktree), unless `given` (the `reference` folder itself).
+/// The folder `sub` of the published reference data: `cases/reference/<sub>` of this package
+/// (see its README for the sources), unless `given` (a folder laid out the same way).
 ///
-/// Errors: a message naming the folder when it is found nowhere.
+/// Errors: a message naming the folder when it does not exist.
 pub fn reference_dir(given: Option<PathBuf>, sub: &str) -> Result<PathBuf, Box<dyn std::error::Error>> {
-    if let Some(d) = given {
-        return Ok(d.join(sub));
+    let d = given.unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("reference")).join(sub);
+    match d.is_dir() {
+        true => Ok(d),
+        false => Err(format!("reference data folder {} not found; pass --reference DIR", d.display()).into()),
     }
-    // This crate sits in `cases/` of the checkout.
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    for c in [root.join("../shared"), root.join("shared"), root.join("../../shared")] {
-        let d = c.join("reference").join(sub);
-        if d.is_dir() {
-            return Ok(d);
-        }
-    }
-    Err(format!("shared/reference/{sub} not found beside the checkout; pass --reference DIR").into())
 }
 
 /// On-CPU time of all threads of the process in seconds (`/proc/self/task/*/schedstat`, Linux;

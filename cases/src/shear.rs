@@ -28,7 +28,7 @@ pub const MU: f64 = 100.0;
 pub const LATE_TIME_D: [(f64, f64); 4] = [(0.025, 0.150), (0.05, 0.261), (0.1, 0.384), (0.2, 0.500)];
 
 /// Late-time Taylor deformation with bending, Pozrikidis (2001), boundary elements (mean of
-/// `../shared/reference/shear_bending/pozrikidis_2001_ca_0.05_eb_0.0375.csv` over `t` = 1-1.8;
+/// `cases/reference/shear_bending/pozrikidis_2001_ca_0.05_eb_0.0375.csv` over `t` = 1-1.8;
 /// published spread 0.13-0.165): `(Ca, E_b', D)`.
 pub const BENDING_LATE_TIME_D: [(f64, f64, f64); 1] = [(0.05, 0.0375, 0.143)];
 

@@ -112,14 +112,9 @@ fn shoelace(points: &[(f64, f64)]) -> f64 {
         .sum::<f64>()
 }
 
-/// The reference data folder, found from the crate root upwards (the main checkout and its
-/// worktrees sit at different depths under the shared folder's parent).
+/// The shear reference curves of this package (`cases/reference/shear_neo_hookean`).
 fn reference_dir() -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    root.ancestors()
-        .map(|a| a.join("shared/reference/shear_neo_hookean"))
-        .find(|p| p.is_dir())
-        .unwrap_or_else(|| panic!("no shared/reference/shear_neo_hookean above {root:?}"))
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("reference/shear_neo_hookean")
 }
 
 // ---------------------------------------------------------------------------------------------
