@@ -112,9 +112,9 @@ fn shoelace(points: &[(f64, f64)]) -> f64 {
         .sum::<f64>()
 }
 
-/// The shear reference curves of this package (`cases/reference/shear_neo_hookean`).
+/// The shear reference curves of this package, where the examples find them.
 fn reference_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("reference/shear_neo_hookean")
+    eulermembrane_cases::reference_dir(None, "shear_neo_hookean").expect("cases/reference/shear_neo_hookean")
 }
 
 // ---------------------------------------------------------------------------------------------
