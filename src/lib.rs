@@ -14,6 +14,13 @@
 //! - [`fluid`]: Poisson/Helmholtz solvers, Krylov and SOR, the projection stepper;
 //! - [`diagnostics`] and [`io`]: measurements, ParaView output, checkpoints.
 //!
+//! Worked examples, each a page to read top to bottom, are in the repository's `examples/`:
+//! `capsule_in_shear` (a capsule in shear against the small-deformation theory), `custom_law`
+//! (a user's [`membrane::SurfaceLaw`] checked with `testing::check_law`), `custom_effect` (a
+//! user's [`simulation::Effect`]), `checkpoint_restart` (a bit-for-bit restart) and
+//! `custom_driver` (a time loop of one's own through [`simulation::Simulation::prepare`],
+//! `commit` and `discard`). Run one with `cargo run --release --example NAME`.
+//!
 //! # Quick start: a pressure-driven channel
 //! ```
 //! use eulermembrane::fluid::{BodyForce, FlowConfig, FlowStepper, Materials};
