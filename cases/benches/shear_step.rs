@@ -28,6 +28,7 @@ fn shear_step(c: &mut Criterion<CpuTime>) {
         t_end: 0.2,
         steps: Steps::Adaptive { cfl: 0.3 },
         box_radii: ShearCase::PAPER_BOX,
+        law: Default::default(),
     };
     let mut group = c.benchmark_group("shear_step");
     group

@@ -487,6 +487,7 @@ fn measure_shear<T: Real>(job: &ShearJob, reference: &[(f64, f64)]) -> Measured 
         t_end: WINDOW.1,
         steps: Steps::Fixed,
         box_radii: ShearCase::PAPER_BOX,
+        law: Default::default(),
     };
     let o = match shear::run::<T>(&case, job.settings::<T>(), 0.05, None, true) {
         Ok(o) => o,

@@ -14,8 +14,9 @@
 //! (NaN without it): the error along the whole transient, which a late mean can hide.
 //! `d_steady` is the mean `D` over the last time unit and `rel_err` its error against `d_ref`,
 //! the published late-time value (NaN where there is none); `t_end` the time reached,
-//! `s0_ratio` the membrane's reference area at the end over its initial value; `coupling` and
-//! `box` say how it ran.
+//! `s0_ratio` the membrane's reference area at the end over its initial value; `late_change`
+//! the mean `D` over the last time unit against that over `t` in `[6, 7]` (runs to `t` >= 8;
+//! NaN otherwise); `coupling`, `law` and `box` say how it ran.
 //!
 //! Steps: adaptive by default (`simulation::AdaptiveDt`: Courant target `--cfl`, the membrane
 //! and bending limits, at most `--max-dt`); `--dt DT` takes fixed steps of `DT` instead (the
@@ -38,6 +39,9 @@
 //! `--coupling sharp|smoothed` (`Settings::traction`, default `sharp`: it holds the membrane's
 //! reference area and cuts the overshoot at 8 cells per radius to a third; `smoothed` is the
 //! paper's and `Settings::default()`'s),
+//! `--law neo_hookean|tension_field` (the membrane: the neo-Hookean law (2.5), default, or its
+//! tension-field relaxation `membrane::TensionField`, a membrane that wrinkles instead of
+//! carrying compression),
 //! `--epsilon E` (`Settings::epsilon`, the band `delta h >= E`; 0.01), `--beta B` (the MTHINC
 //! sharpness of the profile, `Settings::with_beta`; 1),
 //! `--box LX,LY,LZ` (the box in radii, `8,4,8`: the paper's; each a multiple of `8/N`),
@@ -49,7 +53,7 @@
 
 use eulermembrane_cases as common;
 
-use common::shear::{self, ShearCase, ShearOutcome, Steps};
+use common::shear::{self, ShearCase, ShearLaw, ShearOutcome, Steps};
 use common::{Args, BoxResult, num, reference_dir, result};
 use eulermembrane::fluid::ViscousScheme;
 use eulermembrane::membrane::BendingForm;
@@ -84,7 +88,12 @@ fn run() -> BoxResult<()> {
             l.try_into().map_err(|l: Vec<f64>| format!("--box: three lengths LX,LY,LZ, got {}", l.len()))?
         }
     };
-    let base = ShearCase { n, ca, eb_prime, lambda, dt, t_end: args.get("t-end", 6.0), steps, box_radii };
+    let law = match args.opt::<String>("law") {
+        Some(name) => ShearLaw::from_name(&name)?,
+        None => ShearLaw::default(),
+    };
+    let base =
+        ShearCase { n, ca, eb_prime, lambda, dt, t_end: args.get("t-end", 6.0), steps, box_radii, law };
     let refdir: Option<std::path::PathBuf> = args.opt("reference");
     let numerics = Numerics::from_args(&args)?;
     if args.flag("sweep") {
@@ -213,6 +222,20 @@ fn max_curve_err(case: &ShearCase, o: &ShearOutcome, given: Option<std::path::Pa
     o.max_curve_err(&curve, 0.5..=4.0)
 }
 
+/// The steadiness of a long run: the mean `D` over its last time unit against the mean over
+/// `t` in `[6, 7]`, relative (NaN for runs that end before `t` = 8).
+fn late_change(o: &ShearOutcome) -> f64 {
+    let mean = |a: f64, b: f64| {
+        let w: Vec<f64> = o.samples.iter().filter(|s| s.t >= a && s.t <= b).map(|s| s.d).collect();
+        if w.is_empty() { f64::NAN } else { w.iter().sum::<f64>() / w.len() as f64 }
+    };
+    if o.t_end < 8.0 {
+        return f64::NAN;
+    }
+    let early = mean(6.0, 7.0);
+    (mean(o.t_end - 1.0, o.t_end) - early) / early
+}
+
 /// Prints the RESULT line of a run; returns the reference `D` and the relative error (NaN
 /// where there is no reference).
 fn report(
@@ -245,7 +268,9 @@ fn report(
         ("mean_dt", num(o.t_end / o.steps.max(1) as f64)),
         ("t_end", format!("{:.4}", o.t_end)),
         ("s0_ratio", num(o.s0_ratio)),
+        ("late_change", num(late_change(o))),
         ("coupling", coupling.name().to_string()),
+        ("law", case.law.name().to_string()),
         ("box", case.box_radii.map(|l| l.to_string()).join(",")),
     ]);
     (d_ref, rel)

@@ -15,7 +15,7 @@ use eulermembrane::diagnostics::{ellipsoid_fit, taylor_deformation};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::vtk::PvdSeries;
-use eulermembrane::membrane::NeoHookean;
+use eulermembrane::membrane::{NeoHookean, TensionField};
 use eulermembrane::simulation::{AdaptiveDt, FixedDt, Phase, Scene, Settings, Simulation, TimeStepping};
 use std::path::Path;
 use std::time::Instant;
@@ -63,6 +63,37 @@ pub struct ShearCase {
     /// The box's lengths along x, y, z in capsule radii, centred on the capsule (the paper's:
     /// [`ShearCase::PAPER_BOX`]); the spacing stays `8 / N`, so a larger box has more cells.
     pub box_radii: [f64; 3],
+    /// The membrane law with the modulus `E_s = mu a / Ca`.
+    pub law: ShearLaw,
+}
+
+/// The membrane of a shear run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ShearLaw {
+    /// The neo-Hookean law (2.5), as the paper and the boundary-element references.
+    #[default]
+    NeoHookean,
+    /// Its tension-field relaxation ([`TensionField`]): a membrane that wrinkles instead of
+    /// carrying compression.
+    TensionField,
+}
+
+impl ShearLaw {
+    /// The name of the `--law` flag and of the RESULT key `law`: `neo_hookean`, `tension_field`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShearLaw::NeoHookean => "neo_hookean",
+            ShearLaw::TensionField => "tension_field",
+        }
+    }
+
+    /// The law of a [`name`](Self::name).
+    pub fn from_name(s: &str) -> Result<Self, String> {
+        [ShearLaw::NeoHookean, ShearLaw::TensionField]
+            .into_iter()
+            .find(|l| l.name() == s)
+            .ok_or_else(|| format!("--law: neo_hookean or tension_field, got {s}"))
+    }
 }
 
 impl ShearCase {
@@ -184,8 +215,12 @@ pub fn build<T: Real>(case: &ShearCase, settings: Settings<T>) -> eulermembrane:
     let mut scene = Scene::new(grid, Phase::new(T::one(), T::lit(MU))?)
         .inside(Phase::new(T::one(), T::lit(MU * case.lambda))?)
         .capsule(Sphere::new([0.0; 3], 1.0)?)
-        .elasticity(NeoHookean::new(T::lit(es))?)
         .settings(settings);
+    let law = NeoHookean::new(T::lit(es))?;
+    scene = match case.law {
+        ShearLaw::NeoHookean => scene.elasticity(law),
+        ShearLaw::TensionField => scene.elasticity(TensionField::new(law)),
+    };
     if case.eb_prime > 0.0 {
         scene = scene.bending(T::lit(case.eb_prime * es));
     }
@@ -360,6 +395,7 @@ mod tests {
             t_end: 0.1,
             steps: Steps::Fixed,
             box_radii,
+            law: ShearLaw::NeoHookean,
         }
     }
 

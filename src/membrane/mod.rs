@@ -14,6 +14,8 @@
 //!
 //! - [`law`]: the [`SurfaceLaw`] trait (energy and its derivatives in `c1`, `c2`) and the
 //!   paper's laws [`NeoHookean`] (2.5) and [`Skalak`] (2.6);
+//! - [`wrinkling`]: [`TensionField`], the tension-field (relaxed) energy of any law: a membrane
+//!   that wrinkles instead of carrying compression;
 //! - [`stress`](mod@stress): `B_s`, `c1`, `c2`, `τ`, `J'`, `H`, energy density and principal tensions —
 //!   pointwise, allocation free, generic over the law and over `f32`/`f64`;
 //! - [`loading`]: uniaxial and equibiaxial tension of a flat sheet for any law (checked against
@@ -44,6 +46,7 @@ pub mod law;
 pub mod loading;
 pub mod strain;
 pub mod stress;
+pub mod wrinkling;
 
 pub use band::{Band, MAX_HALO};
 pub use bending::{BendingForcing, BendingForm, BendingStress, curvature_tensor_at, mean_curvature_at};
@@ -60,3 +63,4 @@ pub use stress::{
     Jacobian, SurfaceKinematics, TensionInvariants, energy_density, h_tensor, jacobian, principal_tensions,
     stress, stress_and_jacobian, stretching, surface_kinematics, tension_invariants,
 };
+pub use wrinkling::TensionField;
