@@ -60,6 +60,7 @@
 //! ```
 
 mod capsule;
+pub mod contact;
 pub mod effect;
 pub mod effects;
 pub mod observer;
@@ -68,6 +69,7 @@ mod scene;
 pub mod stability;
 pub mod timestep;
 
+pub use contact::{Contact, MAX_RANGE_CELLS, min_gap_cells};
 pub use effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
 pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
 pub use observer::{Observer, RunSummary};
