@@ -228,7 +228,7 @@ mod tests {
     #[test]
     fn taut_states_are_the_law() {
         let nh = NeoHookean::new(3.0).unwrap();
-        let tf = TensionField::new(nh.clone());
+        let tf = TensionField::new(nh);
         for (x1, x2) in [(1.0, 1.0), (1.3, 1.1), (1.5, 0.9), (2.0, 0.8)] {
             let (c1, c2) = cs(x1, x2);
             assert_eq!(tf.energy(c1, c2), nh.energy(c1, c2));
@@ -272,7 +272,7 @@ mod tests {
     #[test]
     fn stress_is_continuous_across_the_wrinkling_boundary() {
         let nh = NeoHookean::new(3.0).unwrap();
-        let tf = TensionField::new(nh.clone());
+        let tf = TensionField::new(nh);
         let x1: f64 = 1.7;
         let xn = 1.0 / x1.sqrt();
         let (a, b) = (cs(x1, xn * (1.0 + 1e-7)), cs(x1, xn * (1.0 - 1e-7)));
