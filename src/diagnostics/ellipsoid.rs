@@ -171,7 +171,7 @@ pub fn ellipsoid_fit<T: Real>(grid: &Grid<T>, phi: &Field<T>) -> Result<Ellipsoi
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::grid::Boundary;
     use crate::interface::shapes::{Ellipsoid, Shape, SignedDistanceFn, Smoothing, smoothed_phi};
@@ -179,7 +179,7 @@ mod tests {
     /// The ellipsoid with semi-axes `axes` along (x, y, z) rotated by `tilt` about y, from x
     /// towards z, centred at `c`, smoothed on `g` as the simulations start (beta = 1, cell
     /// averages).
-    fn tilted(g: &Grid<f64>, c: [f64; 3], axes: [f64; 3], tilt: f64) -> Field<f64> {
+    pub(crate) fn tilted(g: &Grid<f64>, c: [f64; 3], axes: [f64; 3], tilt: f64) -> Field<f64> {
         let e = Ellipsoid::new([0.0; 3], axes).unwrap();
         let (ct, st) = (tilt.cos(), tilt.sin());
         let shape = SignedDistanceFn::new(3, move |x: [f64; 3]| {

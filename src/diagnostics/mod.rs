@@ -44,6 +44,7 @@ pub mod mobility;
 pub mod modes;
 pub mod profile;
 mod reduce;
+pub mod suspension;
 pub mod tangency;
 pub mod taylor;
 pub mod volume;
@@ -57,6 +58,11 @@ pub use energy::{
 pub use mobility::{StokesL2, l2_normal_mode, l2_tangential_mode, surface_velocity_projection};
 pub use modes::{ModeWeight, SurfaceModes, mode_amplitudes, normalized_legendre, surface_modes};
 pub use profile::{ProfileAxes, Span, streamwise_profile};
+pub use suspension::{
+    CapsuleShape, CapsuleStresslet, CellFreeLayer, ParticleStress, ShearFrame, ShearRheology,
+    ViscosityContrast, WallLayer, WallShearStress, capsule_shapes, cell_free_layer, couette_shear_rate,
+    particle_stress, wall_shear_stress,
+};
 pub use tangency::{GsTangency, gs_tangency};
 pub use taylor::{
     EllipseFit, TaylorDeformation, fit_ellipse, section_axes, section_contour, taylor_deformation,

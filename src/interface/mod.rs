@@ -41,6 +41,7 @@ pub mod advect;
 pub mod convolved;
 pub mod geometry;
 pub mod mthinc;
+pub mod placement;
 pub mod shapes;
 
 pub use advect::{AdvectionInfo, AdvectionParams, Advector, Carried, InterfaceTransport};
