@@ -236,6 +236,69 @@ fn a_prestretched_capsule_holds_a_pressure_jump() {
     assert!(drift < 1e-12, "volume drift {drift:e}");
 }
 
+/// The membrane force of a prestretched capsule at rest: its components sum to zero (an
+/// internal force, in divergence form), and its first moment is the isotropic stresslet of a
+/// sphere under the equibiaxial tension `T`, `sum x . f dV = -8 pi r^2 T` (the Laplace
+/// pressure `2 T / r` over the sphere's area, times `r`), with either traction.
+#[test]
+fn the_membrane_force_of_a_prestretched_capsule() {
+    for traction in [Traction::Smoothed, Traction::Sharp] {
+        membrane_force_of_a_prestretched_capsule(traction);
+    }
+}
+
+fn membrane_force_of_a_prestretched_capsule(traction: Traction) {
+    let (r, stretch) = (0.3, 1.05);
+    let mut sim = Scene::new(box16(), fluid())
+        .capsule(Sphere::new([0.5; 3], r).unwrap())
+        .elasticity(NeoHookean::new(1.0).unwrap())
+        .settings(Settings { traction, ..Settings::default() })
+        .build()
+        .unwrap();
+    sim.prestretch(0, stretch).unwrap();
+    let g = sim.grid().clone();
+    let mut f = eulermembrane::grid::VectorField::zeros(&g);
+    sim.membrane_force(1e-3, &mut f).unwrap();
+    let dv = g.h().iter().product::<f64>();
+    let (mut sum, mut abs, mut moment) = ([0.0; 3], 0.0, 0.0);
+    for d in 0..3 {
+        for k in 0..16isize {
+            for j in 0..16isize {
+                for i in 0..16isize {
+                    let x = g.face_center(d, i, j, k);
+                    let v = f.c[d].at(&g, i, j, k);
+                    sum[d] += v * dv;
+                    abs += v.abs() * dv;
+                    moment += (x[d] - 0.5) * v * dv;
+                }
+            }
+        }
+    }
+    assert!(sum.iter().all(|s| s.abs() < 1e-12 * abs), "net force {sum:?} of {abs}");
+    let tension =
+        eulermembrane::membrane::equibiaxial_tension(&NeoHookean::new(1.0).unwrap(), stretch).unwrap();
+    let exact = -8.0 * std::f64::consts::PI * r * r * tension;
+    // Measured: 0.85 % (smoothed) and 1.08 % (sharp) high at 4.8 cells per radius.
+    assert!((moment / exact - 1.0).abs() < 0.02, "{traction:?}: first moment {moment} vs {exact}");
+    // With a velocity, the quasi-implicit terms cancel: the force does not depend on `dt`.
+    stir(&mut sim);
+    let (mut f, mut f2) =
+        (eulermembrane::grid::VectorField::zeros(&g), eulermembrane::grid::VectorField::zeros(&g));
+    sim.membrane_force(1e-3, &mut f).unwrap();
+    sim.membrane_force(1e-1, &mut f2).unwrap();
+    let (mut diff, mut size) = (0.0f64, 0.0f64);
+    for d in 0..3 {
+        for (a, b) in f.c[d].data.iter().zip(&f2.c[d].data) {
+            diff = diff.max((a - b).abs());
+            size = size.max(a.abs());
+        }
+    }
+    assert!(diff < 1e-12 * size, "force changes with dt by {diff:e} of {size:e}");
+    let other = Grid::<f64>::periodic([8; 3], [0.0; 3], [1.0; 3]).unwrap();
+    let err = sim.membrane_force(1e-3, &mut eulermembrane::grid::VectorField::zeros(&other)).unwrap_err();
+    assert!(matches!(err, Error::InvalidParameter { name: "out", .. }), "{err}");
+}
+
 /// Two capsules carried past each other at close range (surfaces about one cell apart) keep
 /// their own `phi`: each keeps its volume, both keep a clear interior, and the two fields
 /// hardly overlap, so they never form one blob.

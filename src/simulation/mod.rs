@@ -653,6 +653,62 @@ impl<T: Real> Simulation<T> {
             .sum()
     }
 
+    /// Adds the force density of the membranes (the [`EnergyRole::Stored`] effects:
+    /// elasticity, bending, contact) at the current state to `out`, on the faces of the
+    /// staggered grid as the flow step receives it: the force whose first moment is the
+    /// suspension's particle stress ([`particle_stress`](crate::diagnostics::particle_stress)).
+    /// The effects are evaluated at the current level (as a step would with `dt`), and their
+    /// quasi-implicit operators applied to the current velocity are added to their explicit
+    /// forces: the `dt` terms of (2.35) cancel and what is added is the force itself (e.g.
+    /// `div(delta tau^n)`), independent of `dt`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `out` if it is not sized for the simulation's grid,
+    /// or `dt` unless finite and `> 0`; [`Error::Unsupported`] while a step is prepared (between
+    /// [`prepare`](Self::prepare) and [`commit`](Self::commit)); an effect's own error.
+    pub fn membrane_force(&mut self, dt: T, out: &mut VectorField<T>) -> Result<()> {
+        positive("dt", dt)?;
+        if (0..3).any(|d| out.c[d].data.len() != self.flow.velocity().c[d].data.len()) {
+            return Err(Error::invalid(
+                "out",
+                "a vector field of another grid",
+                "VectorField::zeros(sim.grid())",
+            ));
+        }
+        if self.pending.is_some() {
+            return Err(Error::Unsupported {
+                component: "Simulation::membrane_force",
+                detail: "a step is prepared: commit or discard it first".into(),
+            });
+        }
+        let state = StepState {
+            grid: &self.grid,
+            settings: &self.settings,
+            time: self.flow.time(),
+            capsules: &self.capsules,
+            level: LevelChoice::Current,
+        };
+        let v = self.flow.velocity();
+        let mut implicit: Option<VectorField<T>> = None;
+        for e in self.effects.iter_mut().filter(|e| e.energy_role() == EnergyRole::Stored) {
+            if !e.is_active(&state) {
+                continue;
+            }
+            e.prepare(&state, v, dt)?;
+            e.add_force(&state, v, out)?;
+            if e.has_implicit(&state) {
+                let y = implicit.get_or_insert_with(|| VectorField::zeros(&self.grid));
+                e.add_implicit(&state, v, y)?;
+            }
+        }
+        if let Some(y) = implicit {
+            for (o, y) in out.c.iter_mut().zip(&y.c) {
+                o.data.iter_mut().zip(&y.data).for_each(|(o, y)| *o += *y);
+            }
+        }
+        Ok(())
+    }
+
     /// What the effects see of the scene.
     fn setup(&self) -> Setup<'_, T> {
         Setup {
