@@ -113,6 +113,25 @@ impl<T: Real> Grid<T> {
         Ok(Grid { n: cells, lower, upper, h, bc, dims })
     }
 
+    /// The grid of a box of `size` whole cells of this grid whose cell 0 is this grid's cell
+    /// `first` (unwrapped: it may lie outside `[0, n)` on a periodic axis), periodic where
+    /// `ring[d]`, else with this grid's boundaries; the spacing is this grid's, bit for bit.
+    /// The caller (a [`Window`](super::Window)) has checked the sizes.
+    pub(crate) fn sub_grid(&self, first: [isize; 3], size: [usize; 3], ring: [bool; 3]) -> Self {
+        let mut g = self.clone();
+        for d in 0..3 {
+            if ring[d] {
+                let at = |c: isize| self.lower[d] + T::from_isize(c).unwrap_or(T::zero()) * self.h[d];
+                g.lower[d] = at(first[d]);
+                g.upper[d] = at(first[d] + size[d] as isize);
+                g.bc[d] = [Boundary::Periodic; 2];
+            }
+        }
+        g.n = size;
+        g.dims = size.map(|c| c + 2 * GHOST);
+        g
+    }
+
     /// A fully periodic grid over `[lower, upper]`.
     pub fn periodic(cells: [usize; 3], lower: [T; 3], upper: [T; 3]) -> Result<Self> {
         Self::new(cells, lower, upper, [[Boundary::Periodic; 2]; 3])

@@ -18,7 +18,9 @@ mod boundary;
 mod field;
 mod geometry;
 pub mod ops;
+mod window;
 
 pub use boundary::Boundary;
 pub use field::{Field, SymField, VectorField};
 pub use geometry::{GHOST, Grid};
+pub use window::Window;
