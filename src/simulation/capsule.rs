@@ -1,11 +1,13 @@
 //! The state of one capsule: its own `phi`, `kappa_R tilde` (bending only), `G_s` (elasticity
 //! only), the geometry derived from `phi` and the membrane band, double-buffered so that a step
-//! is computed beside the state and committed only when every part of it succeeded.
+//! is computed beside the state and committed only when every part of it succeeded. Every
+//! field lives on the capsule's box ([`Window`]) and its grid; the whole grid's fields (the
+//! velocity) are read through it.
 
 use super::effect::{LevelChoice, MembraneView, Needs};
 use super::effects::reference_integral;
 use super::scene::{ReferenceArea, Settings, Traction, TransportMaker};
-use crate::grid::{Field, Grid, SymField, VectorField};
+use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::interface::geometry::{PhiRange, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
 use crate::interface::{Carried, InterfaceTransport, NormalEstimator};
@@ -26,8 +28,51 @@ pub(crate) struct Level<T> {
     pub(crate) band: Band<T>,
 }
 
+/// Where a capsule's fields live: its window of the whole grid and the window's own grid,
+/// with the box velocities gathered for its kernels (none on a whole window, whose kernels
+/// read the whole grid's fields themselves).
+pub(crate) struct Boxed<T: Real> {
+    pub(crate) window: Window,
+    pub(crate) grid: Grid<T>,
+    /// Two staggered fields on the box grid (empty on a whole window).
+    velocity: Vec<VectorField<T>>,
+    /// Scratch of [`MembraneView::on_box`]: the gathered input and the box's output.
+    pub(crate) scratch: std::sync::Mutex<Option<[VectorField<T>; 2]>>,
+}
+
+impl<T: Real> Boxed<T> {
+    pub(crate) fn new(whole: &Grid<T>, window: Window) -> Self {
+        let grid = window.grid(whole);
+        let velocity = match window.is_whole() {
+            true => Vec::new(),
+            false => vec![VectorField::zeros(&grid), VectorField::zeros(&grid)],
+        };
+        Boxed { window, grid, velocity, scratch: std::sync::Mutex::new(None) }
+    }
+
+    /// The staggered fields `a` and `b` of the whole grid `whole` as the box sees them: the
+    /// fields themselves on a whole window, else gathered into the box (ghosts of `a` and `b`
+    /// filled).
+    pub(crate) fn velocities<'a>(
+        &'a mut self,
+        whole: &Grid<T>,
+        a: &'a VectorField<T>,
+        b: &'a VectorField<T>,
+    ) -> Result<(&'a Grid<T>, &'a VectorField<T>, &'a VectorField<T>)> {
+        if self.window.is_whole() {
+            return Ok((&self.grid, a, b));
+        }
+        let [ba, bb] = &mut self.velocity[..] else { unreachable!("two box velocities") };
+        self.window.gather_vector(whole, a, &self.grid, ba)?;
+        self.window.gather_vector(whole, b, &self.grid, bb)?;
+        Ok((&self.grid, ba, bb))
+    }
+}
+
 /// One capsule of a [`Simulation`](super::Simulation).
 pub(crate) struct Capsule<T: Real> {
+    /// Its box and the box's grid, where every field below lives.
+    pub(crate) boxed: Boxed<T>,
     /// Time level `n` (the state).
     pub(crate) cur: Level<T>,
     /// Time level `n + 1` under construction.
@@ -87,16 +132,20 @@ impl<T: Real> Level<T> {
 }
 
 impl<T: Real> Capsule<T> {
-    /// A capsule of `shape` carrying the fields of `needs`, its normals from `normals`, its
-    /// interface carried by the transport `make` returns.
+    /// A capsule of `shape` in the box `window` of the grid `whole`, carrying the fields of
+    /// `needs`, its normals from `normals`, its interface carried by the transport `make`
+    /// returns.
     pub(crate) fn new(
-        grid: &Grid<T>,
+        whole: &Grid<T>,
+        window: Window,
         shape: &dyn Shape,
         settings: &Settings<T>,
         needs: Needs,
         normals: &mut dyn NormalEstimator<T>,
         make: &TransportMaker<T>,
     ) -> Result<Self> {
+        let boxed = Boxed::new(whole, window);
+        let grid = &boxed.grid;
         let (smoothing, epsilon) = (&settings.smoothing, settings.epsilon);
         let curvature = needs.curvature;
         let mut cur = Level::zeros(grid, curvature, epsilon)?;
@@ -131,17 +180,10 @@ impl<T: Real> Capsule<T> {
             }
             Traction::Smoothed => None,
         };
-        let mut cap = Capsule {
-            cur,
-            next,
-            gs,
-            transport: make(grid, if curvature { Carried::PhiAndCurvature } else { Carried::Phi })?,
-            strain,
-            reference_target: None,
-            extension,
-        };
+        let transport = make(grid, if curvature { Carried::PhiAndCurvature } else { Carried::Phi })?;
+        let mut cap = Capsule { boxed, cur, next, gs, transport, strain, reference_target: None, extension };
         if settings.reference_area == ReferenceArea::Conserved {
-            cap.reference_target = cap.reference_area(grid);
+            cap.reference_target = cap.reference_area();
         }
         Ok(cap)
     }
@@ -153,6 +195,9 @@ impl<T: Real> Capsule<T> {
             LevelChoice::Next => &self.next,
         };
         MembraneView {
+            grid: &self.boxed.grid,
+            window: &self.boxed.window,
+            scratch: &self.boxed.scratch,
             phi: &l.phi,
             delta: &l.delta,
             normal: &l.normal,
@@ -165,26 +210,26 @@ impl<T: Real> Capsule<T> {
 
     /// The reference area `sum delta / j_s h^3` of the current level (`None` without
     /// elasticity).
-    pub(crate) fn reference_area(&self, grid: &Grid<T>) -> Option<f64> {
-        self.gs
-            .as_ref()
-            .map(|gs| reference_integral(grid, &self.view(LevelChoice::Current), gs, |_| T::one()))
+    pub(crate) fn reference_area(&self) -> Option<f64> {
+        self.gs.as_ref().map(|gs| {
+            reference_integral(&self.boxed.grid, &self.view(LevelChoice::Current), gs, |_| T::one())
+        })
     }
 
     /// Makes the current reference area the one to conserve (where one is conserved).
-    pub(crate) fn reset_reference_target(&mut self, grid: &Grid<T>) {
+    pub(crate) fn reset_reference_target(&mut self) {
         if self.reference_target.is_some() {
-            self.reference_target = self.reference_area(grid);
+            self.reference_target = self.reference_area();
         }
     }
 
     /// Rescales `G_s` on the band by `lambda = s_0 / s_0(target)`, so that the reference area
     /// `sum delta / j_s h^3` (which scales as `1 / lambda`) returns to its target. Nothing
     /// without a target.
-    pub(crate) fn restore_reference_area(&mut self, grid: &Grid<T>) {
+    pub(crate) fn restore_reference_area(&mut self) {
         // The target first: without it no band pass is made.
         let Some(target) = self.reference_target else { return };
-        let Some(s0) = self.reference_area(grid) else { return };
+        let Some(s0) = self.reference_area() else { return };
         let Some(gs) = self.gs.as_mut() else { return };
         if !(s0 > 0.0 && target > 0.0) {
             return;
@@ -197,16 +242,17 @@ impl<T: Real> Capsule<T> {
     }
 
     /// Steps 1-2 of the time step for this capsule: advects `phi` (and `kappa_R tilde`) with
-    /// `v^n` into the next level and derives its geometry and band there. The state is not
-    /// touched; on error call [`discard`](Self::discard).
+    /// `v^n` (on the whole grid `whole`) into the next level and derives its geometry and band
+    /// there. The state is not touched; on error call [`discard`](Self::discard).
     pub(crate) fn prepare(
         &mut self,
-        grid: &Grid<T>,
+        whole: &Grid<T>,
         v: &VectorField<T>,
         dt: T,
         normals: &mut dyn NormalEstimator<T>,
     ) -> Result<usize> {
         self.next.copy_from(&self.cur);
+        let (grid, v, _) = self.boxed.velocities(whole, v, v)?;
         let info = self.transport.advance(grid, v, dt, &mut self.next.phi, self.next.kappa.as_mut())?;
         self.next.derive(grid, normals)?;
         if let Some(e) = self.extension.as_mut() {

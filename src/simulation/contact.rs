@@ -223,6 +223,16 @@ impl<T: Real> Contact<T> {
     }
 }
 
+/// Contact between capsules is found on the whole grid: a capsule in a smaller box is refused.
+fn boxed_capsule(c: usize) -> Error {
+    Error::Unsupported {
+        component: "Contact",
+        detail: format!(
+            "capsule {c} keeps its fields in a box smaller than the grid; contact needs whole boxes"
+        ),
+    }
+}
+
 /// The harmonic soft-contact law `Pi(g) = p0 (1 - g / r)`.
 #[derive(Debug, Clone, Copy)]
 struct Law<T> {
@@ -342,6 +352,9 @@ fn pairs<'a, T: Real>(
     let mut boxed = Vec::new();
     for c in selected {
         let m = state.membrane(c)?;
+        if !m.window.is_whole() {
+            return Err(boxed_capsule(c));
+        }
         if let Some(b) = CellBox::of_band(m.band) {
             boxed.push((m, b));
         }
@@ -488,6 +501,11 @@ impl<T: Real> Effect<T> for Contact<T> {
     }
     fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
         self.capsules.validate("contact", setup.capsules)?;
+        for c in (0..setup.capsules).filter(|&c| self.capsules.contains(c)) {
+            if setup.capsule_grid(c)? != setup.grid {
+                return Err(boxed_capsule(c));
+            }
+        }
         let beta = setup.settings.advection.beta;
         let p = Profile::new(setup.grid, beta);
         // The gap at a membrane must be read from the other capsule's profile, a cell beyond.

@@ -66,7 +66,7 @@
 
 use super::capsule::Capsule;
 use super::scene::{Phase, Settings};
-use crate::grid::{Field, Grid, SymField, VectorField};
+use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::membrane::{Band, SurfaceExtension, SurfaceLaw};
 use crate::{Error, Real, Result};
 
@@ -160,9 +160,22 @@ pub struct Setup<'a, T: Real> {
     pub inside: Phase<T>,
     /// Number of capsules in the scene.
     pub capsules: usize,
+    /// The grid of each capsule's box.
+    pub(crate) capsule_grids: &'a [Grid<T>],
 }
 
 impl<T: Real> Setup<'_, T> {
+    /// The grid of capsule `c`'s box, where its fields live (the simulation's grid where the box
+    /// is the whole grid): the grid of a membrane effect's work arrays for that capsule.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `capsule` for an index out of range.
+    pub fn capsule_grid(&self, c: usize) -> Result<&Grid<T>> {
+        self.capsule_grids.get(c).ok_or_else(|| {
+            Error::invalid("capsule", format!("{c} (of {} capsules)", self.capsules), "a capsule index")
+        })
+    }
+
     /// Mean of the inner and outer viscosities (the `mu` of the membrane time-step rules).
     pub fn mean_viscosity(&self) -> f64 {
         0.5 * (self.inside.mu + self.outside.mu).f64()
@@ -174,9 +187,17 @@ impl<T: Real> Setup<'_, T> {
     }
 }
 
-/// The membrane of one capsule at one time level, as an effect sees it.
+/// The membrane of one capsule at one time level, as an effect sees it. Its fields live on the
+/// capsule's box ([`window`](Self::window)) and its [`grid`](Self::grid): indices of the band
+/// and of the fields are the box grid's. A force on the fluid is added to the whole grid through
+/// [`on_box`](Self::on_box).
 #[derive(Debug, Clone, Copy)]
 pub struct MembraneView<'a, T> {
+    /// The grid of the capsule's box (the simulation's grid where the box is the whole grid).
+    pub grid: &'a Grid<T>,
+    /// The capsule's box in the simulation's grid.
+    pub window: &'a Window,
+    pub(crate) scratch: &'a std::sync::Mutex<Option<[VectorField<T>; 2]>>,
     /// The smoothed volume fraction `phi` (1 inside, 0 outside; ghosts filled).
     pub phi: &'a Field<T>,
     /// `delta = |grad phi|` (2.26) where `phi` is not saturated (ghosts filled).
@@ -194,6 +215,38 @@ pub struct MembraneView<'a, T> {
     /// [`Traction::Sharp`](super::Traction::Sharp), built for the step being computed (`None`
     /// with the smoothed traction): in-plane forces act through it.
     pub extension: Option<&'a SurfaceExtension<T>>,
+}
+
+impl<T: Real> MembraneView<'_, T> {
+    /// Runs `f(box_grid, x, y)` for this capsule: `x` is the staggered field `x` of the
+    /// simulation's grid `grid` as the capsule's box sees it, and what `f` adds to `y` is added
+    /// to `out` of `grid`. On a whole box `f` gets `grid`, `x` and `out` themselves.
+    ///
+    /// # Errors
+    /// Fields of another grid ([`Error::InvalidParameter`]); `f`'s own.
+    pub fn on_box(
+        &self,
+        grid: &Grid<T>,
+        x: &VectorField<T>,
+        out: &mut VectorField<T>,
+        f: impl FnOnce(&Grid<T>, &VectorField<T>, &mut VectorField<T>) -> Result<()>,
+    ) -> Result<()> {
+        if self.window.is_whole() {
+            return f(grid, x, out);
+        }
+        let mut lock = self.scratch.lock().map_err(|_| Error::Unsupported {
+            component: "MembraneView::on_box",
+            detail: "a box's scratch was poisoned by a panic in another thread".into(),
+        })?;
+        let [bx, by] =
+            lock.get_or_insert_with(|| [VectorField::zeros(self.grid), VectorField::zeros(self.grid)]);
+        self.window.gather_vector(grid, x, self.grid, bx)?;
+        for c in by.c.iter_mut() {
+            c.fill(T::zero());
+        }
+        f(self.grid, bx, by)?;
+        self.window.add_vector_to(self.grid, by, grid, out)
+    }
 }
 
 /// Which time level of the capsules a [`StepState`] shows.

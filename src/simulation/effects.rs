@@ -77,7 +77,9 @@ fn add_implicit_terms<'s, 'w, T: Real, W: 'w, I: ImplicitTerm<T>>(
     y: &mut VectorField<T>,
 ) -> Result<()> {
     for (c, w) in capsules {
-        term(w, state.membrane(c)?)?.add_apply(state.grid, x, y)?;
+        let m = state.membrane(c)?;
+        let t = term(w, m)?;
+        m.on_box(state.grid, x, y, |g, x, y| t.add_apply(g, x, y))?;
     }
     Ok(())
 }
@@ -94,7 +96,8 @@ fn implicit_terms_at<'s, 'w, T: Real, W: 'w, I: ImplicitTerm<T>>(
     idx: usize,
 ) -> T {
     capsules
-        .filter_map(|(c, w)| term(w, state.membrane(c).ok()?).ok())
+        .filter_map(|(c, w)| state.membrane(c).ok().filter(|m| m.window.is_whole()).map(|m| (w, m)))
+        .filter_map(|(w, m)| term(w, m).ok())
         .fold(T::zero(), |s, t| s + t.apply_at(state.grid, x, comp, idx))
 }
 
@@ -134,11 +137,11 @@ impl<W> PerCapsule<W> {
         &mut self,
         effect: &'static str,
         count: usize,
-        mut make: impl FnMut() -> Result<W>,
+        mut make: impl FnMut(usize) -> Result<W>,
     ) -> Result<()> {
         self.capsules.validate(effect, count)?;
         self.work = (0..count)
-            .map(|c| self.capsules.contains(c).then(&mut make).transpose())
+            .map(|c| self.capsules.contains(c).then(|| make(c)).transpose())
             .collect::<Result<_>>()?;
         Ok(())
     }
@@ -221,8 +224,9 @@ impl<T: Real> Effect<T> for Elasticity<T> {
     }
     fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
         let law = &self.law;
-        self.at
-            .attach("elasticity", setup.capsules, || Ok(InPlaneElasticity::new(setup.grid, law.clone())))?;
+        self.at.attach("elasticity", setup.capsules, |c| {
+            Ok(InPlaneElasticity::new(setup.capsule_grid(c)?, law.clone()))
+        })?;
         let (mu_s, k) = small_strain_moduli(self.law());
         if !(mu_s > T::zero() && k > T::zero()) {
             return Err(Error::invalid(
@@ -256,7 +260,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         for (c, e) in self.at.iter_mut() {
             let m = state.membrane(c)?;
             let gs = m.gs.ok_or_else(|| missing_field("elasticity", "G_s", c))?;
-            e.evaluate(state.grid, m.band, gs, m.normal, m.delta, dt)?;
+            e.evaluate(m.grid, m.band, gs, m.normal, m.delta, dt)?;
         }
         Ok(())
     }
@@ -276,7 +280,9 @@ impl<T: Real> Effect<T> for Elasticity<T> {
                 MembraneCoupling::QuasiImplicit => e.forcing(m.band)?,
             };
             if f.is_active() {
-                through(m.extension, v, out, |u, o| f.add(state.grid, state.time, u, o))?;
+                m.on_box(state.grid, v, out, |g, v, out| {
+                    through(m.extension, v, out, |u, o| f.add(g, state.time, u, o))
+                })?;
             }
         }
         Ok(())
@@ -296,7 +302,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         for (c, e) in self.at.iter() {
             let m = state.membrane(c)?;
             let term = e.implicit(m.band)?;
-            through(m.extension, x, y, |u, o| term.add_apply(state.grid, u, o))?;
+            m.on_box(state.grid, x, y, |g, x, y| through(m.extension, x, y, |u, o| term.add_apply(g, u, o)))?;
         }
         Ok(())
     }
@@ -312,7 +318,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
             .iter()
             .filter_map(|(c, _)| {
                 let m = state.membrane(c).ok()?;
-                Some(reference_integral(state.grid, &m, m.gs?, energy))
+                Some(reference_integral(m.grid, &m, m.gs?, energy))
             })
             .sum()
     }
@@ -326,12 +332,13 @@ impl<T: Real> Effect<T> for Elasticity<T> {
 /// (by [`Settings::bending_form`](super::Settings::bending_form)). Needs `kappa_R tilde`.
 pub struct Bending<T: Real> {
     eb: T,
-    /// The capsules it acts on, each with its bending stress.
-    at: PerCapsule<BendingStress<T>>,
+    /// The capsules it acts on, each with its bending stress and the semi-implicit part
+    /// ([`BendingCoupling::SemiImplicit`]), if any.
+    at: PerCapsule<(BendingStress<T>, Option<BendingImplicit<T>>)>,
     form: BendingForm,
     atanh4: bool,
-    /// The semi-implicit part ([`BendingCoupling::SemiImplicit`]), shared by the capsules.
-    implicit: Option<BendingImplicit<T>>,
+    /// Whether the coupling is semi-implicit.
+    implicit: bool,
 }
 
 impl<T: Real> Bending<T> {
@@ -341,7 +348,13 @@ impl<T: Real> Bending<T> {
     /// [`Error::InvalidParameter`] naming `eb` unless it is finite and `> 0`.
     pub fn new(eb: T) -> Result<Self> {
         positive("eb", eb)?;
-        Ok(Bending { eb, at: PerCapsule::all(), form: BendingForm::default(), atanh4: false, implicit: None })
+        Ok(Bending {
+            eb,
+            at: PerCapsule::all(),
+            form: BendingForm::default(),
+            atanh4: false,
+            implicit: false,
+        })
     }
 
     /// The same bending on the capsules with these indices only.
@@ -374,8 +387,16 @@ impl<T: Real> Effect<T> for Bending<T> {
     }
     fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
         let eb = self.eb;
-        self.at.attach("bending", setup.capsules, || BendingStress::new(setup.grid, eb))?;
         let s = setup.settings;
+        let alpha = match s.bending_coupling {
+            BendingCoupling::Explicit => None,
+            BendingCoupling::SemiImplicit { alpha } => Some(T::lit(alpha)),
+        };
+        self.at.attach("bending", setup.capsules, |c| {
+            let g = setup.capsule_grid(c)?;
+            let implicit = alpha.map(|a| BendingImplicit::new(g, eb, a)).transpose()?;
+            Ok((BendingStress::new(g, eb)?, implicit))
+        })?;
         if s.bending_form == BendingForm::EnergyGradient
             && !matches!(s.normals, NormalScheme::Atanh2 | NormalScheme::Atanh4)
         {
@@ -387,12 +408,7 @@ impl<T: Real> Effect<T> for Bending<T> {
         }
         self.form = s.bending_form;
         self.atanh4 = s.normals == NormalScheme::Atanh4;
-        self.implicit = match s.bending_coupling {
-            BendingCoupling::Explicit => None,
-            BendingCoupling::SemiImplicit { alpha } => {
-                Some(BendingImplicit::new(setup.grid, eb, T::lit(alpha))?)
-            }
-        };
+        self.implicit = alpha.is_some();
         Ok(())
     }
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
@@ -400,17 +416,17 @@ impl<T: Real> Effect<T> for Bending<T> {
         bending_dt_limit(setup.mean_viscosity(), setup.min_spacing(), self.eb.f64(), coupling).ok()
     }
     fn prepare(&mut self, state: &StepState<'_, T>, _: &VectorField<T>, dt: T) -> Result<()> {
-        if let Some(imp) = &mut self.implicit {
-            imp.set_dt(dt)?;
-        }
-        for (c, b) in self.at.iter_mut() {
+        for (c, (b, imp)) in self.at.iter_mut() {
+            if let Some(imp) = imp {
+                imp.set_dt(dt)?;
+            }
             let m = state.membrane(c)?;
             let kappa = m.curvature.ok_or_else(|| missing_field("bending", "kappa_R tilde", c))?;
             match self.form {
                 BendingForm::EnergyGradient => {
-                    b.evaluate_variational(state.grid, m.band, m.phi, kappa, self.atanh4)?
+                    b.evaluate_variational(m.grid, m.band, m.phi, kappa, self.atanh4)?
                 }
-                _ => b.evaluate(state.grid, m.band, m.normal, m.delta, kappa)?,
+                _ => b.evaluate(m.grid, m.band, m.normal, m.delta, kappa)?,
             }
         }
         Ok(())
@@ -424,16 +440,17 @@ impl<T: Real> Effect<T> for Bending<T> {
         v: &VectorField<T>,
         out: &mut VectorField<T>,
     ) -> Result<()> {
-        for (c, b) in self.at.iter() {
-            let f = b.forcing(state.membrane(c)?.band)?;
+        for (c, (b, _)) in self.at.iter() {
+            let m = state.membrane(c)?;
+            let f = b.forcing(m.band)?;
             if f.is_active() {
-                f.add(state.grid, state.time, v, out)?;
+                m.on_box(state.grid, v, out, |g, v, out| f.add(g, state.time, v, out))?;
             }
         }
         Ok(())
     }
     fn has_implicit(&self, _: &StepState<'_, T>) -> bool {
-        self.implicit.is_some()
+        self.implicit
     }
     fn add_implicit(
         &self,
@@ -441,12 +458,12 @@ impl<T: Real> Effect<T> for Bending<T> {
         x: &VectorField<T>,
         y: &mut VectorField<T>,
     ) -> Result<()> {
-        let Some(imp) = &self.implicit else { return Ok(()) };
-        add_implicit_terms(state, self.at.iter(), |_, m| imp.term(m.band, m.normal, m.delta), x, y)
+        let terms = self.at.iter().filter_map(|(c, (_, imp))| Some((c, imp.as_ref()?)));
+        add_implicit_terms(state, terms, |imp, m| imp.term(m.band, m.normal, m.delta), x, y)
     }
     fn implicit_at(&self, state: &StepState<'_, T>, x: &VectorField<T>, comp: usize, idx: usize) -> T {
-        let Some(imp) = &self.implicit else { return T::zero() };
-        implicit_terms_at(state, self.at.iter(), |_, m| imp.term(m.band, m.normal, m.delta), x, comp, idx)
+        let terms = self.at.iter().filter_map(|(c, (_, imp))| Some((c, imp.as_ref()?)));
+        implicit_terms_at(state, terms, |imp, m| imp.term(m.band, m.normal, m.delta), x, comp, idx)
     }
 }
 
@@ -492,17 +509,16 @@ impl<T: Real> Effect<T> for SurfaceLoad {
     fn add_force(
         &self,
         state: &StepState<'_, T>,
-        _: &VectorField<T>,
+        v: &VectorField<T>,
         out: &mut VectorField<T>,
     ) -> Result<()> {
-        let grid = state.grid;
-        out.matches(grid, "force")?;
-        let st = grid.strides();
+        out.matches(state.grid, "force")?;
         let half = T::lit(0.5);
         let t = state.time.f64();
         for c in (0..state.capsule_count()).filter(|&c| self.capsules.contains(c)) {
             let m = state.membrane(c)?;
-            let band = m.band;
+            let (band, grid) = (m.band, m.grid);
+            let st = grid.strides();
             let delta = |idx: usize| if band.contains(idx) { m.delta.data[idx] } else { T::zero() };
             let add = |out: &mut VectorField<T>| {
                 for (&idx, ijk) in band.halo(1).iter().zip(band.coords(1)) {
@@ -521,10 +537,10 @@ impl<T: Real> Effect<T> for SurfaceLoad {
                 }
                 Ok(())
             };
-            match m.extension {
-                Some(x) => x.spread(out, add)?,
-                None => add(out)?,
-            }
+            m.on_box(state.grid, v, out, |_, _, out| match m.extension {
+                Some(x) => x.spread(out, add),
+                None => add(out),
+            })?;
         }
         Ok(())
     }

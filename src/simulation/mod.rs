@@ -85,7 +85,7 @@ use crate::diagnostics::{
 use crate::error::positive;
 use crate::fluid::{Coefficient, Materials};
 use crate::grid::ops::cell_vector;
-use crate::grid::{Field, Grid, SymField, VectorField};
+use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::interface::NormalEstimator;
 use crate::membrane::Band;
 use crate::tensor::{project, projector};
@@ -184,6 +184,11 @@ pub struct Simulation<T: Real> {
     pending: Option<Pending>,
     /// How many capsules hold a prepared level (rolled back by [`Simulation::discard`]).
     prepared_capsules: usize,
+    /// The grid of each capsule's box (for [`Setup`]).
+    capsule_grids: Vec<Grid<T>>,
+    /// Scratch of the mixture (2.25): the sum of the capsules' `phi` (only with variable
+    /// materials).
+    mixture: Option<Field<T>>,
 }
 
 impl<T: Real> Simulation<T> {
@@ -191,21 +196,21 @@ impl<T: Real> Simulation<T> {
         grid: Grid<T>,
         outside: Phase<T>,
         inside: Phase<T>,
-        shapes: Vec<Box<dyn crate::interface::shapes::Shape + Send>>,
+        shapes: Vec<(Box<dyn crate::interface::shapes::Shape + Send>, Window)>,
         effects: Vec<Box<dyn Effect<T>>>,
         settings: Settings<T>,
         mut strategies: Strategies<T>,
     ) -> Result<Self> {
         let (mut normals, make) = strategies.interface(&grid, &settings);
         let mut capsules = Vec::with_capacity(shapes.len());
-        for (c, shape) in shapes.iter().enumerate() {
+        for (c, (shape, window)) in shapes.into_iter().enumerate() {
             let needs = effects.iter().filter(|e| e.acts_on(c)).fold(Needs::NONE, |n, e| {
                 let m = e.needs();
                 Needs { strain: n.strain || m.strain, curvature: n.curvature || m.curvature }
             });
-            let cap = Capsule::new(&grid, shape.as_ref(), &settings, needs, normals.as_mut(), &make)?;
-            check_wall_distance(&grid, &cap.cur.phi, settings.smoothing.beta, c)?;
-            check_extent(&grid, &cap.cur.phi, shape.volume(), c)?;
+            let cap = Capsule::new(&grid, window, shape.as_ref(), &settings, needs, normals.as_mut(), &make)?;
+            check_wall_distance(&cap.boxed.grid, &cap.cur.phi, settings.smoothing.beta, c)?;
+            check_extent(&cap.boxed.grid, &cap.cur.phi, shape.volume(), c)?;
             capsules.push(cap);
         }
         let mut flow = FlowStepper::new(&grid, Materials::uniform(outside.rho, outside.mu)?, settings.flow)?;
@@ -229,7 +234,10 @@ impl<T: Real> Simulation<T> {
             ledger: None,
             pending: None,
             prepared_capsules: 0,
+            capsule_grids: Vec::new(),
+            mixture: None,
         };
+        sim.capsule_grids = sim.capsules.iter().map(|c| c.boxed.grid.clone()).collect();
         sim.set_materials()?;
         Ok(sim)
     }
@@ -257,7 +265,8 @@ impl<T: Real> Simulation<T> {
 
     /// Recomputes the variable material fields in place from `phi` (current or next level).
     fn update_materials(&mut self, next: bool) {
-        update_materials(&self.grid, self.inside, self.outside, &self.capsules, &mut self.flow, next);
+        let mix = &mut self.mixture;
+        update_materials(&self.grid, self.inside, self.outside, &self.capsules, &mut self.flow, mix, next);
     }
 
     /// Advances one time step of size `dt` (see the [module docs](self) for its parts):
@@ -360,7 +369,8 @@ impl<T: Real> Simulation<T> {
             e.prepare(&state, self.flow.velocity(), dt)?;
         }
         // 4-5: materials and the flow step (the same state: the mixture does not change it).
-        update_materials(grid, self.inside, self.outside, &self.capsules, &mut self.flow, true);
+        let mix = &mut self.mixture;
+        update_materials(grid, self.inside, self.outside, &self.capsules, &mut self.flow, mix, true);
         let forcing = EffectForcing { effects: &self.effects, state: &state };
         let implicit = EffectImplicit { effects: &self.effects, state: &state };
         let extra = implicit.any().then_some(&implicit as &dyn crate::fluid::ImplicitTerm<T>);
@@ -368,9 +378,10 @@ impl<T: Real> Simulation<T> {
         // 6: G_s^{n+1}, beside the state.
         for cap in self.capsules.iter_mut() {
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
+                let (v_old, v_new) = (self.flow.velocity(), self.flow.prepared_velocity());
+                let (grid, v_old, v_new) = cap.boxed.velocities(grid, v_old, v_new)?;
                 gs.fill_ghosts(grid);
                 let (band, normal) = (&cap.next.band, &cap.next.normal);
-                let (v_old, v_new) = (self.flow.velocity(), self.flow.prepared_velocity());
                 match cap.extension.as_ref() {
                     Some(x) => x.with_extended(v_old, v_new, |u_old, u_new| {
                         strain.prepare(grid, band, dt, u_old, u_new, normal, gs)
@@ -391,7 +402,6 @@ impl<T: Real> Simulation<T> {
 
     /// Makes the prepared step `p` the state.
     fn commit_step(&mut self, p: Pending) -> Result<StepReport> {
-        let grid = &self.grid;
         if let Some((l, _)) = self.ledger.as_mut() {
             l.dissipated += p.dissipated;
             l.work += p.work;
@@ -413,7 +423,7 @@ impl<T: Real> Simulation<T> {
                 }
             }
             cap.commit();
-            cap.restore_reference_area(grid);
+            cap.restore_reference_area();
         }
         self.prepared_capsules = 0;
         Ok(p.report)
@@ -531,7 +541,17 @@ impl<T: Real> Simulation<T> {
         })
     }
 
-    /// `phi` of capsule `c` (1 inside, 0 outside).
+    /// The grid of capsule `c`'s box, where its fields ([`phi`](Self::phi), [`delta`](Self::delta),
+    /// the normals, the band, `G_s`) live: the simulation's grid where the box is the whole
+    /// grid, else the box's cells of it ([`Window::grid`]).
+    pub fn capsule_grid(&self, c: usize) -> Result<&Grid<T>> {
+        Ok(&self.capsule(c)?.boxed.grid)
+    }
+    /// Capsule `c`'s box in the simulation's grid.
+    pub fn window(&self, c: usize) -> Result<&Window> {
+        Ok(&self.capsule(c)?.boxed.window)
+    }
+    /// `phi` of capsule `c` (1 inside, 0 outside), on its [`capsule_grid`](Self::capsule_grid).
     pub fn phi(&self, c: usize) -> Result<&Field<T>> {
         Ok(&self.capsule(c)?.cur.phi)
     }
@@ -543,18 +563,20 @@ impl<T: Real> Simulation<T> {
     pub fn delta(&self, c: usize) -> Result<&Field<T>> {
         Ok(&self.capsule(c)?.cur.delta)
     }
-    /// The velocity the membrane of capsule `c` moves and strains with, into `out`: the fluid
-    /// velocity with the smoothed traction, the map [`SurfaceExtension`](crate::membrane::SurfaceExtension)
-    /// of it with [`Traction::Sharp`] (the tangential velocity of the closest surface point on
-    /// the faces around the band).
+    /// The velocity the membrane of capsule `c` moves and strains with, into `out` on the
+    /// capsule's [`capsule_grid`](Self::capsule_grid): the fluid velocity with the smoothed
+    /// traction, the map [`SurfaceExtension`](crate::membrane::SurfaceExtension) of it with
+    /// [`Traction::Sharp`] (the tangential velocity of the closest surface point on the faces
+    /// around the band).
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule or `velocity` for a
     /// field of another grid.
     pub fn membrane_velocity(&self, c: usize, out: &mut VectorField<T>) -> Result<()> {
         let cap = self.capsule(c)?;
-        out.matches(&self.grid, "velocity")?;
-        out.copy_from(self.flow.velocity());
+        let (g, bg) = (&self.grid, &cap.boxed.grid);
+        out.matches(bg, "velocity")?;
+        cap.boxed.window.gather_vector(g, self.flow.velocity(), bg, out)?;
         if let Some(e) = cap.extension.as_ref() {
             if e.generation() != cap.cur.band.generation() {
                 return Err(Error::Unsupported {
@@ -562,7 +584,8 @@ impl<T: Real> Simulation<T> {
                     detail: "the membrane velocity map is not the current state's".into(),
                 });
             }
-            e.extend(self.flow.velocity(), out);
+            let v = out.clone();
+            e.extend(&v, out);
         }
         Ok(())
     }
@@ -590,8 +613,8 @@ impl<T: Real> Simulation<T> {
     pub fn prestretch(&mut self, c: usize, lambda: T) -> Result<()> {
         positive("lambda", lambda)?;
         self.capsule(c)?;
-        let grid = &self.grid;
         let cap = &mut self.capsules[c];
+        let grid = &cap.boxed.grid;
         let Some(gs) = cap.gs.as_mut() else {
             return Err(Error::invalid(
                 "prestretch",
@@ -608,22 +631,23 @@ impl<T: Real> Simulation<T> {
         if let Some(s) = cap.strain.as_mut() {
             s.reset_history();
         }
-        cap.reset_reference_target(grid);
+        cap.reset_reference_target();
         Ok(())
     }
 
     /// Volume `sum phi h^3` of capsule `c`.
     pub fn volume(&self, c: usize) -> Result<f64> {
-        crate::diagnostics::volume(&self.grid, self.phi(c)?)
+        crate::diagnostics::volume(self.capsule_grid(c)?, self.phi(c)?)
     }
-    /// Centroid (3.5) of capsule `c`.
+    /// Centroid (3.5) of capsule `c` (in the positions of its box: past the upper side of a
+    /// periodic axis for a box that straddles it).
     pub fn centroid(&self, c: usize) -> Result<[f64; 3]> {
-        crate::diagnostics::centroid(&self.grid, self.phi(c)?)
+        crate::diagnostics::centroid(self.capsule_grid(c)?, self.phi(c)?)
     }
     /// Surface area `sum delta h^3` of capsule `c` (for the transported area (3.7), see
     /// [`AreaTracker`](crate::diagnostics::AreaTracker)).
     pub fn area(&self, c: usize) -> Result<f64> {
-        crate::diagnostics::area_from_delta(&self.grid, self.delta(c)?)
+        crate::diagnostics::area_from_delta(self.capsule_grid(c)?, self.delta(c)?)
     }
 
     /// Reference (unstressed) area `sum delta / j_s h^3` of the membrane of capsule `c`, with
@@ -636,7 +660,7 @@ impl<T: Real> Simulation<T> {
     /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule.
     pub fn reference_area(&self, c: usize) -> Result<Option<f64>> {
         let cap = self.capsule(c)?;
-        Ok(cap.reference_area(&self.grid))
+        Ok(cap.reference_area())
     }
 
     /// The energy stored by the membranes: the sum of [`Effect::stored_energy`] over the
@@ -717,6 +741,7 @@ impl<T: Real> Simulation<T> {
             outside: self.outside,
             inside: self.inside,
             capsules: self.capsules.len(),
+            capsule_grids: &self.capsule_grids,
         }
     }
 
@@ -763,26 +788,37 @@ impl<T: Real> Simulation<T> {
 }
 
 /// Recomputes the variable material fields of `flow` in place from the mixture (2.25) of the
-/// capsules' `phi` (current or next level).
+/// capsules' `phi` (current or next level), summed in capsule order into `mix` (scratch).
 fn update_materials<T: Real>(
     grid: &Grid<T>,
     inside: Phase<T>,
     outside: Phase<T>,
     caps: &[Capsule<T>],
     flow: &mut FlowStepper<T>,
+    mix: &mut Option<Field<T>>,
     next: bool,
 ) {
     let (a, b) = (inside, outside);
     let m = flow.materials_mut();
-    for (coef, (xa, xb)) in [(&mut m.rho, (a.rho, b.rho)), (&mut m.mu, (a.mu, b.mu))] {
+    let fields = [(&mut m.rho, (a.rho, b.rho)), (&mut m.mu, (a.mu, b.mu))];
+    if !fields.iter().any(|(c, _)| matches!(c, Coefficient::Field(_))) {
+        return;
+    }
+    let w = mix.get_or_insert_with(|| Field::zeros(grid));
+    w.fill(T::zero());
+    for c in caps {
+        let phi = if next { &c.next.phi } else { &c.cur.phi };
+        if c.boxed.window.is_whole() {
+            w.data.iter_mut().zip(&phi.data).for_each(|(w, p)| *w += *p);
+        } else {
+            // The box grid and fields are the capsule's own: this cannot fail.
+            let _ = c.boxed.window.add_to(&c.boxed.grid, phi, grid, w);
+        }
+    }
+    for (coef, (xa, xb)) in fields {
         if let Coefficient::Field(f) = coef {
-            f.data.iter_mut().enumerate().for_each(|(idx, out)| {
-                let w = caps
-                    .iter()
-                    .map(|c| if next { c.next.phi.data[idx] } else { c.cur.phi.data[idx] })
-                    .fold(T::zero(), |s, p| s + p)
-                    .max(T::zero())
-                    .min(T::one());
+            f.data.iter_mut().zip(&w.data).for_each(|(out, &w)| {
+                let w = w.max(T::zero()).min(T::one());
                 *out = w * xa + (T::one() - w) * xb;
             });
             f.fill_ghosts(grid);

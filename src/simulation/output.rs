@@ -44,48 +44,63 @@ impl<T: Real> Simulation<T> {
         )
     }
 
-    /// Writes a ParaView snapshot (VTK XML image data, raw appended binary): `phi` (all
-    /// capsules together, and per capsule when there are several), the velocity at cell centres,
-    /// the pressure, `delta`, and with elasticity the principal tensions `t1`, `t2` and the area
-    /// dilation `j_s` on the membrane bands. Pair it with a
-    /// [`PvdSeries`](crate::io::vtk::PvdSeries) for a time series.
+    /// Writes a ParaView snapshot (VTK XML image data, raw appended binary) of the whole grid:
+    /// `phi` (all capsules together, and per capsule when there are several), the velocity at
+    /// cell centres, the pressure, `delta`, and with elasticity the principal tensions `t1`,
+    /// `t2` and the area dilation `j_s` on the membrane bands (summed where two bands overlap).
+    /// Pair it with a [`PvdSeries`](crate::io::vtk::PvdSeries) for a time series.
     pub fn write_vti(&self, path: impl AsRef<Path>) -> Result<()> {
         let g = &self.grid;
-        let mut w = VtiWriter::new(g);
         let caps = &self.capsules;
-        let total = |f: fn(&super::capsule::Level<T>, usize) -> T| {
-            move |i: usize, j: usize, k: usize| {
-                let idx = g.idx_u(i, j, k);
-                caps.iter().map(|c| f(&c.cur, idx).f64()).sum::<f64>()
+        // The capsules' box fields `f` added into one field of the whole grid.
+        let total = |f: fn(&super::capsule::Level<T>) -> &Field<T>| -> Result<Field<T>> {
+            let mut out = Field::zeros(g);
+            for cap in caps {
+                cap.boxed.window.add_to(&cap.boxed.grid, f(&cap.cur), g, &mut out)?;
             }
+            Ok(out)
         };
-        w.scalar_fn("phi", total(|l, idx| l.phi.data[idx]));
-        if self.capsules.len() > 1 {
-            for (c, cap) in self.capsules.iter().enumerate() {
-                w.scalar(&format!("phi_{c}"), &cap.cur.phi);
+        let mut w = VtiWriter::new(g);
+        let phi = total(|l| &l.phi)?;
+        w.scalar("phi", &phi);
+        let mut each = Vec::new();
+        if caps.len() > 1 {
+            for cap in caps {
+                let mut one = Field::zeros(g);
+                cap.boxed.window.add_to(&cap.boxed.grid, &cap.cur.phi, g, &mut one)?;
+                each.push(one);
             }
         }
+        for (c, one) in each.iter().enumerate() {
+            w.scalar(&format!("phi_{c}"), one);
+        }
         w.vector("velocity", self.flow.velocity()).scalar("pressure", self.flow.pressure());
-        w.scalar_fn("delta", total(|l, idx| l.delta.data[idx]));
+        let delta = total(|l| &l.delta)?;
+        w.scalar("delta", &delta);
         // The in-plane law of each capsule (the first effect that gives one).
         let laws: Vec<_> =
             (0..caps.len()).map(|c| self.effects.iter().find_map(|e| e.surface_law(c))).collect();
+        let mut tensions = Vec::new();
         if laws.iter().any(|l| l.is_some()) {
-            let inv = |idx: usize| {
-                self.capsules.iter().zip(&laws).find_map(|(cap, law)| {
-                    let (gs, l, law) = (cap.gs.as_ref()?, &cap.cur, (*law)?);
-                    l.band.contains(idx).then(|| {
+            type Of<T> = fn(&crate::membrane::stress::TensionInvariants<T>) -> T;
+            let parts: [(&str, Of<T>); 3] = [("t1", |t| t.t1), ("t2", |t| t.t2), ("j_s", |t| t.dilation)];
+            for (name, of) in parts {
+                let mut field = Field::zeros(g);
+                for (cap, law) in caps.iter().zip(&laws) {
+                    let (Some(gs), Some(law)) = (cap.gs.as_ref(), law) else { continue };
+                    let (l, bg) = (&cap.cur, &cap.boxed.grid);
+                    let mut f = Field::zeros(bg);
+                    for &idx in l.band.cells() {
                         let n = cell_vector(&l.normal, idx);
-                        tension_invariants(law, &gs.get(idx), &n)
-                    })
-                })
-            };
-            let at = |f: fn(&crate::membrane::stress::TensionInvariants<T>) -> T| {
-                move |i: usize, j: usize, k: usize| inv(g.idx_u(i, j, k)).map_or(0.0, |t| f(&t).f64())
-            };
-            w.scalar_fn("t1", at(|t| t.t1))
-                .scalar_fn("t2", at(|t| t.t2))
-                .scalar_fn("j_s", at(|t| t.dilation));
+                        f.data[idx] = of(&tension_invariants(*law, &gs.get(idx), &n));
+                    }
+                    cap.boxed.window.add_to(bg, &f, g, &mut field)?;
+                }
+                tensions.push((name, field));
+            }
+        }
+        for (name, f) in &tensions {
+            w.scalar(name, f);
         }
         w.write(path)
     }
@@ -148,12 +163,12 @@ impl<T: Real> Simulation<T> {
         if count != self.capsules.len() as f64 {
             return Err(Error::invalid("checkpoint capsules", count, "the capsule count of this scene"));
         }
-        let g = &self.grid;
-        let len = g.len();
-        let field = |name: &str| -> Result<Field<T>> { Ok(Field { data: r.array(name, len)? }) };
         // Read everything first.
         let mut read = Vec::with_capacity(self.capsules.len());
         for (c, cap) in self.capsules.iter().enumerate() {
+            let g = &cap.boxed.grid;
+            let len = g.len();
+            let field = |name: &str| -> Result<Field<T>> { Ok(Field { data: r.array(name, len)? }) };
             let p = format!("capsule{c}.");
             let phi = field(&format!("{p}phi"))?;
             let kappa = match &cap.cur.kappa {
@@ -198,7 +213,7 @@ impl<T: Real> Simulation<T> {
             cap.cur.phi = phi;
             cap.cur.kappa = kappa;
             cap.gs = gs;
-            cap.cur.derive(g, self.normals.as_mut())?;
+            cap.cur.derive(&cap.boxed.grid, self.normals.as_mut())?;
             cap.transport.restore(&r, &format!("capsule{c}."))?;
             if let Some(s) = cap.strain.as_mut() {
                 match strain {

@@ -7,7 +7,7 @@ use super::effect::{Effect, Setup};
 use super::effects::{Bending, Elasticity, SurfaceLoad};
 use crate::error::positive;
 use crate::fluid::{BodyForce, FlowConfig, MomentumSolver, PressureSolver, ViscousScheme};
-use crate::grid::Grid;
+use crate::grid::{Grid, Window};
 use crate::interface::shapes::{Shape, Smoothing};
 use crate::interface::{
     AdvectionParams, Advector, Carried, Geometry, InterfaceTransport, NormalEstimator, NormalScheme,
@@ -514,12 +514,15 @@ impl<T: Real> Scene<T> {
             return Err(Error::invalid("epsilon", eps, "a number in (0, 1), e.g. 0.01"));
         }
         let mut effects = self.effects;
+        let windows: Vec<Window> = self.capsules.iter().map(|_| Window::whole(&self.grid)).collect();
+        let capsule_grids: Vec<Grid<T>> = windows.iter().map(|w| w.grid(&self.grid)).collect();
         let setup = Setup {
             grid: &self.grid,
             settings: &self.settings,
             outside: self.outside,
             inside: self.inside,
             capsules: self.capsules.len(),
+            capsule_grids: &capsule_grids,
         };
         for e in effects.iter_mut() {
             e.attach(&setup)?;
@@ -538,7 +541,7 @@ impl<T: Real> Scene<T> {
             self.grid,
             self.outside,
             self.inside,
-            self.capsules,
+            self.capsules.into_iter().zip(windows).collect(),
             effects,
             self.settings,
             self.strategies,
