@@ -73,6 +73,9 @@ impl InterfaceTransport<f64> for CountedTransport {
         self.1.undo.fetch_add(1, Ordering::Relaxed);
         self.0.undo()
     }
+    fn roll(&mut self, grid: &Grid<f64>, axis: usize, by: isize) -> Result<()> {
+        self.0.roll(grid, axis, by)
+    }
     fn checkpoint(&self, w: &mut CheckpointWriter, prefix: &str) {
         self.0.checkpoint(w, prefix)
     }

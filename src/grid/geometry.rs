@@ -228,6 +228,11 @@ impl<T: Real> Grid<T> {
         x[axis] -= T::lit(0.5) * self.h[axis];
         x
     }
+    /// Whether `other` has the same cells, spacing and boundaries, wherever it lies (a box of
+    /// cells moved by whole cells: kernels that use no absolute position run the same on both).
+    pub fn same_cells(&self, other: &Grid<T>) -> bool {
+        self.n == other.n && self.h == other.h && self.bc == other.bc
+    }
     /// The axes that end in walls.
     pub fn wall_axes(&self) -> Vec<usize> {
         (0..3).filter(|&d| !self.is_periodic(d)).collect()

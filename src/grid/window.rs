@@ -169,6 +169,11 @@ impl Window {
         self.first
     }
 
+    /// Whether the box is a ring (a periodic axis it does not span) along each axis.
+    pub fn rings(&self) -> [bool; 3] {
+        self.ring
+    }
+
     /// Whether the box is the whole grid.
     pub fn is_whole(&self) -> bool {
         self.ring == [false; 3]
@@ -346,6 +351,23 @@ impl Window {
     /// cells wrapping around the ring), and fills its ghosts periodically along that axis.
     /// `line` is scratch.
     pub fn roll<T: Real>(boxed: &Grid<T>, field: &mut Field<T>, axis: usize, by: isize, line: &mut Vec<T>) {
+        Self::roll_slice(boxed, &mut field.data, axis, by, line);
+    }
+
+    /// [`roll`](Self::roll) of any per-cell storage of the box grid (`boxed.len()` values,
+    /// ghosts included), e.g. a transport's time history
+    /// ([`InterfaceTransport::roll`](crate::interface::InterfaceTransport::roll)). Nothing for
+    /// storage of another length.
+    pub fn roll_slice<T: Real, V: Copy + Default>(
+        boxed: &Grid<T>,
+        data: &mut [V],
+        axis: usize,
+        by: isize,
+        line: &mut Vec<V>,
+    ) {
+        if data.len() != boxed.len() || axis > 2 {
+            return;
+        }
         let n = boxed.n()[axis];
         let by = by.rem_euclid(n as isize) as usize;
         let dims = boxed.dims();
@@ -355,21 +377,21 @@ impl Window {
             1 => (0, 2),
             _ => (0, 1),
         };
-        line.resize(n, T::zero());
+        line.resize(n, V::default());
         for q in 0..dims[b] {
             for p in 0..dims[a] {
                 let base = p * st[a] + q * st[b];
                 let at = |c: usize| base + (c + GHOST) * st[axis];
                 for (c, l) in line.iter_mut().enumerate() {
-                    *l = field.data[at((c + by) % n)];
+                    *l = data[at((c + by) % n)];
                 }
                 for (c, l) in line.iter().enumerate() {
-                    field.data[at(c)] = *l;
+                    data[at(c)] = *l;
                 }
                 for gcell in 0..GHOST {
-                    field.data[base + gcell * st[axis]] =
+                    data[base + gcell * st[axis]] =
                         line[(gcell as isize - GHOST as isize).rem_euclid(n as isize) as usize];
-                    field.data[base + (n + GHOST + gcell) * st[axis]] = line[gcell % n];
+                    data[base + (n + GHOST + gcell) * st[axis]] = line[gcell % n];
                 }
             }
         }

@@ -124,8 +124,10 @@ pub enum Carried {
 /// of a user's, called once per capsule with what it must carry ([`Carried`]): a transport
 /// holds one capsule's time history. The simulation proposes a step with
 /// [`advance`](Self::advance) and, when the step is discarded, calls [`undo`](Self::undo);
-/// checkpoints save and restore the history. A transport without a time history keeps the
-/// default `undo`, `checkpoint` and `restore`, which do nothing.
+/// checkpoints save and restore the history; a capsule's box that moves with it
+/// ([`CapsuleStorage::Boxed`](crate::simulation::CapsuleStorage)) calls [`roll`](Self::roll).
+/// A transport without a time history keeps the default `undo`, `checkpoint` and `restore`,
+/// which do nothing, and returns `Ok(())` from `roll`.
 ///
 /// A user transport that wraps the default one and counts its steps:
 ///
@@ -153,6 +155,9 @@ pub enum Carried {
 ///     }
 ///     fn undo(&mut self) {
 ///         self.0.undo()
+///     }
+///     fn roll(&mut self, grid: &Grid<f64>, axis: usize, by: isize) -> eulermembrane::Result<()> {
+///         self.0.roll(grid, axis, by)
 ///     }
 ///     fn checkpoint(&self, w: &mut CheckpointWriter, prefix: &str) {
 ///         self.0.checkpoint(w, prefix)
@@ -198,6 +203,28 @@ pub trait InterfaceTransport<T: Real>: Send + Sync {
     /// Returns the transport's own state (its time history) to what it was before the last
     /// [`advance`](Self::advance) (called once, when that step is discarded).
     fn undo(&mut self) {}
+
+    /// Moves the transport's own state (its time history on the grid) with the capsule's box:
+    /// the box moved by `by` cells along `axis` and its fields were rolled by
+    /// [`Window::roll`](crate::grid::Window::roll) (cell `b` took the value of cell `b + by`);
+    /// roll every per-cell history the same way (e.g. with
+    /// [`Window::roll_slice`](crate::grid::Window::roll_slice)). Called between steps only.
+    ///
+    /// # Errors
+    /// The default refuses ([`Error::Unsupported`]): a transport that keeps no state on the
+    /// grid returns `Ok(())`; one that does rolls it. The box then stays where it is and the
+    /// step reports the error.
+    fn roll(&mut self, grid: &Grid<T>, axis: usize, by: isize) -> Result<()> {
+        let _ = (grid, axis, by);
+        Err(Error::Unsupported {
+            component: "InterfaceTransport::roll",
+            detail: format!(
+                "the transport {} does not move with a capsule's box (implement roll, or keep the \
+                 capsules on the whole grid)",
+                self.name()
+            ),
+        })
+    }
 
     /// Adds the transport's own state to a checkpoint, with names prefixed by `prefix`.
     fn checkpoint(&self, _w: &mut CheckpointWriter, _prefix: &str) {}
@@ -557,6 +584,17 @@ impl<T: Real> InterfaceTransport<T> for Advector<T> {
             }
             None => self.reset_history(),
         }
+    }
+
+    /// Rolls the AB2 right-hand sides with the box.
+    fn roll(&mut self, grid: &Grid<T>, axis: usize, by: isize) -> Result<()> {
+        if grid.dims() != self.dims {
+            return Err(Error::invalid("grid", format!("{:?} cells", grid.n()), "the grid of Advector::new"));
+        }
+        let mut line = Vec::new();
+        crate::grid::Window::roll_slice(grid, &mut self.rhs_phi, axis, by, &mut line);
+        crate::grid::Window::roll_slice(grid, &mut self.rhs_kappa, axis, by, &mut line);
+        Ok(())
     }
 
     /// Writes `adv_dt_prev`, `adv_rhs_phi` and `adv_rhs_kappa` (nothing before the first

@@ -393,6 +393,10 @@ impl<S: Shape> Shape for Rotated<S> {
     fn volume(&self) -> Option<f64> {
         self.shape.volume()
     }
+    fn bounding_radius(&self) -> Option<f64> {
+        // Turned about its own centre: the same ball holds it.
+        self.shape.bounding_radius()
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -689,6 +693,12 @@ impl Shape for PlacedShape {
         match self {
             PlacedShape::Sphere(s) => s.volume(),
             PlacedShape::Biconcave(b) => b.volume(),
+        }
+    }
+    fn bounding_radius(&self) -> Option<f64> {
+        match self {
+            PlacedShape::Sphere(s) => s.bounding_radius(),
+            PlacedShape::Biconcave(b) => b.bounding_radius(),
         }
     }
 }

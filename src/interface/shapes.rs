@@ -60,6 +60,12 @@ pub trait Shape: Sync {
     fn volume(&self) -> Option<f64> {
         None
     }
+    /// The radius of a ball about the [`center`](Self::center) that holds the shape, where
+    /// known (a capsule's box is sized from it; without it the capsule keeps its fields on the
+    /// whole grid).
+    fn bounding_radius(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// How a shape is smoothed and averaged over cells.
@@ -152,6 +158,9 @@ impl Shape for Sphere {
     fn center(&self) -> Option<[f64; 3]> {
         Some(self.center)
     }
+    fn bounding_radius(&self) -> Option<f64> {
+        Some(self.radius)
+    }
     fn volume(&self) -> Option<f64> {
         Some(4.0 / 3.0 * PI * self.radius.powi(3))
     }
@@ -194,6 +203,9 @@ impl Shape for Circle {
     }
     fn center(&self) -> Option<[f64; 3]> {
         Some(self.center)
+    }
+    fn bounding_radius(&self) -> Option<f64> {
+        Some(self.radius)
     }
     fn volume(&self) -> Option<f64> {
         Some(PI * self.radius * self.radius)
@@ -259,6 +271,9 @@ impl Shape for Ellipsoid {
     fn center(&self) -> Option<[f64; 3]> {
         Some(self.center)
     }
+    fn bounding_radius(&self) -> Option<f64> {
+        Some(self.semi_axes.iter().fold(0.0, |m: f64, &a| m.max(a)))
+    }
     fn volume(&self) -> Option<f64> {
         let [a, b, c] = self.semi_axes;
         Some(4.0 / 3.0 * PI * a * b * c)
@@ -316,6 +331,9 @@ impl Shape for Ellipse {
     }
     fn center(&self) -> Option<[f64; 3]> {
         Some(self.center)
+    }
+    fn bounding_radius(&self) -> Option<f64> {
+        Some(self.semi_axes.iter().fold(0.0, |m: f64, &a| m.max(a)))
     }
     fn volume(&self) -> Option<f64> {
         Some(PI * self.semi_axes[0] * self.semi_axes[1])
@@ -664,6 +682,9 @@ impl Shape for Biconcave {
     }
     fn center(&self) -> Option<[f64; 3]> {
         Some(self.center)
+    }
+    fn bounding_radius(&self) -> Option<f64> {
+        Some(self.radius)
     }
     fn volume(&self) -> Option<f64> {
         // pi a^3 int_0^1 f(s) sqrt(1 - s) ds, with int s^k sqrt(1-s) = 2/3, 4/15, 16/105.

@@ -296,7 +296,7 @@ impl<T: Real> BendingStress<T> {
     /// Common entry of the evaluations: invalidates the last force and checks `grid` and `band`.
     fn begin(&mut self, grid: &Grid<T>, band: &Band<T>) -> Result<()> {
         self.generation = 0;
-        if grid != &self.grid {
+        if !grid.same_cells(&self.grid) {
             return Err(Error::invalid(
                 "grid",
                 format!("{:?} cells", grid.n()),

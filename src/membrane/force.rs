@@ -222,7 +222,7 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
         dt: T,
     ) -> Result<()> {
         self.generation = 0;
-        if grid != &self.grid {
+        if !grid.same_cells(&self.grid) {
             return Err(Error::invalid(
                 "grid",
                 format!("{:?} cells", grid.n()),

@@ -345,6 +345,30 @@ impl<T: Real> StrainTransport<T> {
         self.has_history
     }
 
+    /// Moves the AB2 history with a capsule's box rolled by `by` cells along `axis`
+    /// ([`Window::roll`](crate::grid::Window::roll): cell `b` takes the value of cell `b + by`,
+    /// round the ring).
+    pub fn roll(&mut self, axis: usize, by: isize) {
+        if !self.has_history || axis > 2 {
+            return;
+        }
+        let g = &self.grid;
+        let (dims, n) = (g.dims(), g.n()[axis] as isize);
+        let cells: Vec<usize> = self
+            .prev_cells
+            .iter()
+            .map(|&idx| {
+                let mut c = [idx % dims[0], (idx / dims[0]) % dims[1], idx / (dims[0] * dims[1])];
+                let b = c[axis] as isize - GHOST as isize;
+                c[axis] = ((b - by).rem_euclid(n) + GHOST as isize) as usize;
+                c[0] + dims[0] * (c[1] + dims[1] * c[2])
+            })
+            .collect();
+        let tend = std::mem::take(&mut self.prev_adv);
+        // The cells are interior cells of the same grid and the tendencies finite: this holds.
+        let _ = self.restore_history(&cells, &tend);
+    }
+
     /// The AB2 history, for checkpoints: the storage indices of the cells with a stored
     /// advective tendency and those tendencies (`None` before the first step).
     pub fn history(&self) -> Option<(&[usize], &[Sym<T>])> {
@@ -429,7 +453,7 @@ impl<T: Real> StrainTransport<T> {
         gs: &SymField<T>,
     ) -> Result<()> {
         self.prepared = 0;
-        if grid != &self.grid {
+        if !grid.same_cells(&self.grid) {
             return Err(Error::invalid(
                 "grid",
                 format!("{:?} cells", grid.n()),

@@ -276,4 +276,56 @@ impl<T: Real> Capsule<T> {
     pub(crate) fn commit(&mut self) {
         std::mem::swap(&mut self.cur, &mut self.next);
     }
+
+    /// The cells between the band of `level` and the two sides of the box along each ring axis
+    /// (`None` on whole axes and for an empty band).
+    pub(crate) fn room(&self, level: LevelChoice) -> [Option<(usize, usize)>; 3] {
+        let band = match level {
+            LevelChoice::Current => &self.cur.band,
+            LevelChoice::Next => &self.next.band,
+        };
+        let w = &self.boxed.window;
+        let size = w.size();
+        std::array::from_fn(|d| {
+            if !w.rings()[d] {
+                return None;
+            }
+            let coords = band.coords(0);
+            let lo = coords.iter().map(|c| c[d] as usize).min()?;
+            let hi = coords.iter().map(|c| c[d] as usize).max()?;
+            Some((lo, size[d] - 1 - hi))
+        })
+    }
+
+    /// Moves the box by `by` cells along ring axis `axis` of the whole grid `whole`, rolling the
+    /// state with it (the transport's history first: a transport that refuses leaves
+    /// everything as it was), and derives the geometry and the membrane map anew there.
+    pub(crate) fn shift(
+        &mut self,
+        whole: &Grid<T>,
+        axis: usize,
+        by: isize,
+        normals: &mut dyn NormalEstimator<T>,
+    ) -> Result<()> {
+        self.transport.roll(&self.boxed.grid, axis, by)?;
+        self.boxed.window.shift(axis, by)?;
+        let mut line = Vec::new();
+        let g = &self.boxed.grid;
+        Window::roll(g, &mut self.cur.phi, axis, by, &mut line);
+        if let Some(k) = self.cur.kappa.as_mut() {
+            Window::roll(g, k, axis, by, &mut line);
+        }
+        if let Some(gs) = self.gs.as_mut() {
+            Window::roll_sym(g, gs, axis, by, &mut line);
+        }
+        if let Some(s) = self.strain.as_mut() {
+            s.roll(axis, by);
+        }
+        self.boxed.grid = self.boxed.window.grid(whole);
+        self.cur.derive(&self.boxed.grid, normals)?;
+        if let Some(e) = self.extension.as_mut() {
+            e.rebuild(&self.cur.band, &self.cur.phi, &self.cur.normal)?;
+        }
+        Ok(())
+    }
 }

@@ -74,8 +74,8 @@ pub use effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepS
 pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
 pub use observer::{Observer, RunSummary};
 pub use scene::{
-    BendingCoupling, GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings, Traction,
-    TransportMaker,
+    BOX_MIN_ROOM, BendingCoupling, CapsuleStorage, GsTransport, MembraneCoupling, Phase, ReferenceArea,
+    Scene, Settings, Traction, TransportMaker, box_margin,
 };
 pub use timestep::{AdaptiveDt, FixedDt, TimeStepping};
 
@@ -208,7 +208,12 @@ impl<T: Real> Simulation<T> {
                 let m = e.needs();
                 Needs { strain: n.strain || m.strain, curvature: n.curvature || m.curvature }
             });
-            let cap = Capsule::new(&grid, window, shape.as_ref(), &settings, needs, normals.as_mut(), &make)?;
+            let mut cap =
+                Capsule::new(&grid, window, shape.as_ref(), &settings, needs, normals.as_mut(), &make)?;
+            if !cap.boxed.window.is_whole() {
+                // A box moves with its capsule: its transport must move its history with it.
+                cap.transport.roll(&cap.boxed.grid, 0, 0)?;
+            }
             check_wall_distance(&cap.boxed.grid, &cap.cur.phi, settings.smoothing.beta, c)?;
             check_extent(&cap.boxed.grid, &cap.cur.phi, shape.volume(), c)?;
             capsules.push(cap);
@@ -355,6 +360,7 @@ impl<T: Real> Simulation<T> {
             self.prepared_capsules = c + 1;
             profile_cells +=
                 self.capsules[c].prepare(grid, self.flow.velocity(), dt, self.normals.as_mut())?;
+            check_room(&self.capsules[c], c)?;
         }
         // 3: the effects, at the new level with G_s^n.
         let time = self.flow.time();
@@ -426,6 +432,17 @@ impl<T: Real> Simulation<T> {
             cap.restore_reference_area();
         }
         self.prepared_capsules = 0;
+        // Each box follows its capsule: the membrane band centred (a transport that cannot
+        // move leaves its box where it is and reports it).
+        for cap in &mut self.capsules {
+            for (d, room) in cap.room(LevelChoice::Current).into_iter().enumerate() {
+                let Some((lo, hi)) = room else { continue };
+                let off = (lo as isize - hi as isize) / 2;
+                if off != 0 {
+                    cap.shift(&self.grid, d, off, self.normals.as_mut())?;
+                }
+            }
+        }
         Ok(p.report)
     }
 
@@ -850,6 +867,27 @@ fn external_power<T: Real>(
         e.add_force(state, v, f)?;
     }
     body_force_power(g, w, f)
+}
+
+/// Refuses a prepared level whose membrane band comes within [`BOX_MIN_ROOM`] cells of its
+/// box's side: the capsule has outgrown its box.
+fn check_room<T: Real>(cap: &Capsule<T>, c: usize) -> Result<()> {
+    for (d, room) in cap.room(LevelChoice::Next).into_iter().enumerate() {
+        if let Some((lo, hi)) = room
+            && lo.min(hi) < BOX_MIN_ROOM
+        {
+            return Err(Error::invalid(
+                "CapsuleStorage::Boxed room",
+                format!(
+                    "a box of {} cells along axis {d} for capsule {c}, whose band comes within {} cells of its side",
+                    cap.boxed.window.size()[d],
+                    lo.min(hi)
+                ),
+                "a room that leaves the band BOX_MIN_ROOM cells from the box's sides as the capsule deforms",
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses a capsule that the grid cannot carry: one whose volume (the shape's where it is known

@@ -3,7 +3,7 @@
 use super::Simulation;
 use crate::Real;
 use crate::grid::ops::cell_vector;
-use crate::grid::{Field, SymField};
+use crate::grid::{Field, SymField, Window};
 use crate::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use crate::io::vtk::VtiWriter;
 use crate::membrane::stress::tension_invariants;
@@ -116,6 +116,11 @@ impl<T: Real> Simulation<T> {
         w.number("capsules", self.capsules.len() as f64);
         for (c, cap) in self.capsules.iter().enumerate() {
             let p = format!("capsule{c}.");
+            if !cap.boxed.window.is_whole() {
+                for (d, f) in cap.boxed.window.first().into_iter().enumerate() {
+                    w.number(&format!("{p}first{d}"), f as f64);
+                }
+            }
             w.array(&format!("{p}phi"), &cap.cur.phi.data);
             if let Some(k) = &cap.cur.kappa {
                 w.array(&format!("{p}kappa"), &k.data);
@@ -170,6 +175,17 @@ impl<T: Real> Simulation<T> {
             let len = g.len();
             let field = |name: &str| -> Result<Field<T>> { Ok(Field { data: r.array(name, len)? }) };
             let p = format!("capsule{c}.");
+            // Where its box was (a box follows its capsule).
+            let window = match cap.boxed.window.is_whole() {
+                true => cap.boxed.window.clone(),
+                false => {
+                    let mut first = [0isize; 3];
+                    for (d, f) in first.iter_mut().enumerate() {
+                        *f = r.number(&format!("{p}first{d}"))? as isize;
+                    }
+                    Window::new(&self.grid, first, cap.boxed.window.size())?
+                }
+            };
             let phi = field(&format!("{p}phi"))?;
             let kappa = match &cap.cur.kappa {
                 Some(_) => Some(field(&format!("{p}kappa"))?),
@@ -202,11 +218,15 @@ impl<T: Real> Simulation<T> {
             } else {
                 None
             };
-            read.push((phi, kappa, gs, strain, target));
+            read.push((window, phi, kappa, gs, strain, target));
         }
         // Then replace: the flow first (it validates the grid), then the capsules.
         self.flow.restore(&r, "flow.")?;
-        for (c, (cap, (phi, kappa, gs, strain, target))) in self.capsules.iter_mut().zip(read).enumerate() {
+        for (c, (cap, (window, phi, kappa, gs, strain, target))) in
+            self.capsules.iter_mut().zip(read).enumerate()
+        {
+            cap.boxed.grid = window.grid(&self.grid);
+            cap.boxed.window = window;
             if target.is_some() {
                 cap.reference_target = target;
             }

@@ -78,7 +78,62 @@ pub struct Settings<T> {
     /// Which velocity carries and strains the membrane, and where its in-plane force acts.
     /// Default [`Traction::Smoothed`] (the paper's).
     pub traction: Traction,
+    /// Where each capsule keeps its fields. Default [`CapsuleStorage::Whole`].
+    pub storage: CapsuleStorage,
 }
+
+/// Where each capsule keeps its fields (`phi`, its geometry, `G_s`, the transports'
+/// histories): on the whole grid, or on a box of cells that follows it ([`Window`]), so that
+/// memory and the capsule's work follow the capsule, not the grid.
+///
+/// ```
+/// use eulermembrane::grid::Grid;
+/// use eulermembrane::interface::shapes::Sphere;
+/// use eulermembrane::membrane::NeoHookean;
+/// use eulermembrane::simulation::{CapsuleStorage, Phase, Scene, Settings};
+///
+/// let grid = Grid::<f64>::periodic([48, 16, 16], [0.0; 3], [3.0, 1.0, 1.0])?;
+/// let settings = Settings { storage: CapsuleStorage::Boxed { room: 1.2 }, ..Settings::default() };
+/// let sim = Scene::new(grid, Phase::new(1.0, 1.0)?)
+///     .capsule(Sphere::new([0.5; 3], 0.25)?)
+///     .elasticity(NeoHookean::new(1.0)?)
+///     .settings(settings)
+///     .build()?;
+/// // 1.2 radii (4.8 cells) and 12 cells on each side along x; y and z are shorter: whole.
+/// assert_eq!(sim.window(0)?.size(), [36, 16, 16]);
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum CapsuleStorage {
+    /// Every capsule on the whole grid.
+    #[default]
+    Whole,
+    /// Each capsule on a box of whole cells around it: along each periodic axis `room` times
+    /// its [bounding radius](crate::interface::shapes::Shape::bounding_radius) and
+    /// [`box_margin`] cells on each side of its centre (the whole axis where that is as long as
+    /// the grid, and along wall axes). The box moves with the capsule by whole cells after
+    /// each step, so that its membrane stays centred; a capsule that grows out of it (its band
+    /// within [`BOX_MIN_ROOM`] cells of a side) fails the step with an error naming `room`. A
+    /// shape without a bounding radius keeps the whole grid.
+    Boxed {
+        /// The box's half-width in bounding radii, beyond the margin (`>= 1`: room for the
+        /// capsule to deform, e.g. 1.2 for red cells, 1.6 for a capsule at `D` = 0.3).
+        room: f64,
+    },
+}
+
+/// Cells between a capsule's bounding ball (times its room) and its box's sides at profile
+/// sharpness `beta`: the reach `atanh(1 - 2e-10) / beta` (11.5 cells at `beta = 1`) of the
+/// geometry, which is evaluated where `phi` lies in `(1e-10, 1 - 1e-10)`, rounded up. The box's
+/// two ends meet beyond it, so nothing a capsule's kernels compute reaches across them: a boxed
+/// capsule then follows the whole-grid one to `2e-8` of its elastic energy (at 8 cells less it
+/// differs by `1e-6`; `tests/capsule_boxes.rs`).
+pub fn box_margin(beta: f64) -> usize {
+    ((1.0 - 2e-10f64).atanh() / beta).ceil() as usize
+}
+
+/// The fewest cells between a membrane band and its box's side (the reach of the stencils).
+pub const BOX_MIN_ROOM: usize = 4;
 
 /// Which velocity carries and strains the membrane (`G_s`), and so where the in-plane membrane
 /// force acts (it is the adjoint of that velocity's strain rate).
@@ -275,6 +330,7 @@ impl<T: Real> Default for Settings<T> {
             bending_form: BendingForm::Divergence,
             bending_coupling: BendingCoupling::default(),
             traction: Traction::default(),
+            storage: CapsuleStorage::default(),
         }
     }
 }
@@ -513,8 +569,13 @@ impl<T: Real> Scene<T> {
         if !(eps > T::zero() && eps < T::one()) {
             return Err(Error::invalid("epsilon", eps, "a number in (0, 1), e.g. 0.01"));
         }
+        let (storage, beta) = (self.settings.storage, self.settings.advection.beta.f64());
+        let windows = self
+            .capsules
+            .iter()
+            .map(|s| window(&self.grid, storage, beta, s.as_ref()))
+            .collect::<Result<Vec<_>>>()?;
         let mut effects = self.effects;
-        let windows: Vec<Window> = self.capsules.iter().map(|_| Window::whole(&self.grid)).collect();
         let capsule_grids: Vec<Grid<T>> = windows.iter().map(|w| w.grid(&self.grid)).collect();
         let setup = Setup {
             grid: &self.grid,
@@ -546,5 +607,19 @@ impl<T: Real> Scene<T> {
             self.settings,
             self.strategies,
         )
+    }
+}
+
+/// The box of `shape`'s fields on `g` by `storage` (see [`CapsuleStorage`]).
+fn window<T: Real>(g: &Grid<T>, storage: CapsuleStorage, beta: f64, shape: &dyn Shape) -> Result<Window> {
+    match (storage, shape.center(), shape.bounding_radius()) {
+        (CapsuleStorage::Boxed { room }, Some(c), Some(r)) => {
+            if !(room.is_finite() && room >= 1.0) {
+                return Err(Error::invalid("CapsuleStorage::Boxed room", room, "a number >= 1"));
+            }
+            let r = room * r;
+            Window::around(g, c.map(|x| x - r), c.map(|x| x + r), box_margin(beta))
+        }
+        _ => Ok(Window::whole(g)),
     }
 }

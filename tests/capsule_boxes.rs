@@ -1,0 +1,118 @@
+//! Capsules on boxes that follow them ([`CapsuleStorage::Boxed`]) against the same capsules on
+//! the whole grid: the same fields to the profile tail, the volume to round-off, a box that
+//! crosses the periodic seam, bit-for-bit restart, and a capsule that outgrows its box.
+
+use eulermembrane::grid::{Boundary, Field, Grid};
+use eulermembrane::interface::shapes::Sphere;
+use eulermembrane::membrane::NeoHookean;
+use eulermembrane::simulation::{CapsuleStorage, Phase, Scene, Settings, Simulation, Traction};
+
+/// A neo-Hookean sphere of radius 0.25 (4 cells) carried along x across the periodic seam by a
+/// uniform flow with a shear wave on it, on the whole grid or on a box.
+fn carried(storage: CapsuleStorage, traction: Traction) -> Simulation<f64> {
+    let grid = Grid::periodic([48, 16, 16], [0.0; 3], [3.0, 1.0, 1.0]).unwrap();
+    let settings = Settings { storage, traction, ..Settings::default() };
+    let mut sim = Scene::new(grid, Phase::new(1.0, 1.0).unwrap())
+        .inside(Phase::new(1.0, 2.0).unwrap())
+        .capsule(Sphere::new([2.6, 0.5, 0.5], 0.25).unwrap())
+        .elasticity(NeoHookean::new(0.5).unwrap())
+        .settings(settings)
+        .build()
+        .unwrap();
+    let tau = 2.0 * std::f64::consts::PI;
+    sim.set_velocity(|x| [1.0 + 0.3 * (tau * x[2]).sin(), 0.0, 0.1 * (tau * x[0] / 3.0).cos()]).unwrap();
+    sim
+}
+
+/// Capsule 0's `phi` on the whole grid.
+fn phi_on_grid(sim: &Simulation<f64>) -> Field<f64> {
+    let g = sim.grid();
+    let mut out = Field::zeros(g);
+    sim.window(0).unwrap().add_to(sim.capsule_grid(0).unwrap(), sim.phi(0).unwrap(), g, &mut out).unwrap();
+    out
+}
+
+fn max_difference(a: &Field<f64>, b: &Field<f64>, g: &Grid<f64>) -> f64 {
+    g.cells().map(|(i, j, k)| (a.data[g.idx_u(i, j, k)] - b.data[g.idx_u(i, j, k)]).abs()).fold(0.0, f64::max)
+}
+
+#[test]
+fn a_boxed_capsule_follows_the_whole_grid_capsule_across_the_seam() {
+    for traction in [Traction::Smoothed, Traction::Sharp] {
+        let mut whole = carried(CapsuleStorage::Whole, traction);
+        let mut boxed = carried(CapsuleStorage::Boxed { room: 1.2 }, traction);
+        let w0 = boxed.window(0).unwrap().clone();
+        // 1.2 radii (4.8 cells) and 12 cells each side: 35 cells along x, the whole y and z.
+        assert_eq!(w0.size(), [35, 16, 16]);
+        let v0 = boxed.volume(0).unwrap();
+        for _ in 0..100 {
+            whole.step(0.01).unwrap();
+            boxed.step(0.01).unwrap();
+        }
+        // The box moved with the capsule (about 1 cell per 0.0625 time), past x = 3.
+        let w1 = boxed.window(0).unwrap();
+        let moved = w1.first()[0] - w0.first()[0];
+        assert!((14..=18).contains(&moved), "moved {moved} cells");
+        let c = boxed.centroid(0).unwrap();
+        assert!(c[0] > 3.0, "centroid {c:?} (positions of the box continue past the seam)");
+        // Its volume is kept as on the whole grid (to the Krylov tolerance: 8e-10 there), and
+        // its fields are the whole grid's to 1e-8 but in the far tail of phi (1e-6).
+        let (vb, vw) = (boxed.volume(0).unwrap(), whole.volume(0).unwrap());
+        assert!(
+            (vb - v0).abs() <= 1e-10 * v0,
+            "{traction:?}: volume drift {:e} (whole grid {:e})",
+            vb / v0 - 1.0,
+            vw / v0 - 1.0
+        );
+        let g = whole.grid();
+        let diff = max_difference(&phi_on_grid(&boxed), whole.phi(0).unwrap(), g);
+        assert!(diff < 1e-6, "{traction:?}: max |phi_boxed - phi_whole| = {diff:e}");
+        let (ea, eb) = (whole.elastic_energy(), boxed.elastic_energy());
+        assert!(ea > 0.0 && (ea - eb).abs() < 1e-7 * ea, "{traction:?}: elastic energy {ea:e} vs {eb:e}");
+        let dv = max_difference(&whole.velocity().c[0], &boxed.velocity().c[0], g);
+        assert!(dv < 1e-7, "{traction:?}: velocities differ by {dv:e}");
+    }
+}
+
+#[test]
+fn a_boxed_run_restarts_bit_for_bit() {
+    let mut a = carried(CapsuleStorage::Boxed { room: 1.2 }, Traction::Smoothed);
+    for _ in 0..20 {
+        a.step(0.01).unwrap();
+    }
+    let path = std::env::temp_dir().join(format!("eulermembrane_boxed_{}.ckpt", std::process::id()));
+    a.checkpoint(&path).unwrap();
+    let mut b = carried(CapsuleStorage::Boxed { room: 1.2 }, Traction::Smoothed);
+    b.restore(&path).unwrap();
+    std::fs::remove_file(&path).ok();
+    assert_eq!(a.window(0).unwrap(), b.window(0).unwrap());
+    for _ in 0..20 {
+        a.step(0.01).unwrap();
+        b.step(0.01).unwrap();
+    }
+    assert_eq!(a.window(0).unwrap(), b.window(0).unwrap());
+    assert_eq!(a.phi(0).unwrap(), b.phi(0).unwrap());
+    assert_eq!(a.gs(0).unwrap(), b.gs(0).unwrap());
+    assert_eq!(a.velocity(), b.velocity());
+}
+
+#[test]
+fn a_capsule_that_outgrows_its_box_fails_the_step_by_name() {
+    // A soft capsule stretched by a shear between walls (z) grows out of a box of room 1.
+    let mut bc = [[Boundary::Periodic; 2]; 3];
+    bc[2] = [Boundary::Wall { velocity: [-1.5, 0.0, 0.0] }, Boundary::Wall { velocity: [1.5, 0.0, 0.0] }];
+    let grid = Grid::new([48, 16, 24], [0.0; 3], [3.0, 1.0, 1.5], bc).unwrap();
+    let settings = Settings { storage: CapsuleStorage::Boxed { room: 1.0 }, ..Settings::default() };
+    let mut sim = Scene::new(grid, Phase::new(1.0, 1.0).unwrap())
+        .capsule(Sphere::new([1.5, 0.5, 0.75], 0.25).unwrap())
+        .elasticity(NeoHookean::new(0.02).unwrap())
+        .settings(settings)
+        .build()
+        .unwrap();
+    sim.set_velocity(|x| [2.0 * (x[2] - 0.75), 0.0, 0.0]).unwrap();
+    let before = sim.steps();
+    let err = (0..300).find_map(|_| sim.step(0.01).err()).expect("the capsule outgrows its box");
+    let text = format!("{err} {err:?}");
+    assert!(text.contains("CapsuleStorage::Boxed room"), "{text}");
+    assert!(sim.steps() > before + 10, "failed at once: {text}");
+}
