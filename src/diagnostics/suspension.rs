@@ -134,20 +134,10 @@
 //!
 //! # Getting the membrane force of a state
 //!
-//! [`Simulation`](crate::simulation::Simulation) does not hand out the force it applied, and a
-//! [`StepState`](crate::simulation::StepState) cannot be built outside the crate, so
-//! `Effect::add_force` of its effects cannot be called on a state. The in-plane force of the
-//! current state is rebuilt from the public pieces instead: an
-//! [`InPlaneElasticity`](crate::membrane::InPlaneElasticity) with the scene's law,
-//! [`evaluate`](crate::membrane::InPlaneElasticity::evaluate)d on
-//! `sim.band(c)`, `sim.gs(c)`, `sim.normal(c)`, `sim.delta(c)`, then
-//! [`explicit_forcing`](crate::membrane::InPlaneElasticity::explicit_forcing)`(band).add(..)`
-//! (the example of [`particle_stress`]). That is `div(delta tau(G_s^n, n^n))` of the state; the
-//! force of the last step was `tau(G_s^{n-1}, n^n)` plus the quasi-implicit term. With
-//! [`Traction::Sharp`](crate::simulation::Traction::Sharp) the force acts through a
-//! [`SurfaceExtension`](crate::membrane::SurfaceExtension) that the simulation does not expose
-//! (its stresslet differs by the spreading); bending needs a
-//! [`BendingStress`](crate::membrane::BendingStress) on `sim.kappa_r_tilde(c)`.
+//! [`Simulation::membrane_force`](crate::simulation::Simulation::membrane_force) adds the force
+//! density of the membranes at the current state (elasticity, bending and contact, through the
+//! sharp traction's spreading where it is used) to a staggered field of the grid: the force
+//! whose first moment [`particle_stress`] takes.
 
 use super::ellipsoid::{EllipsoidFit, ellipsoid_fit};
 use super::reduce::{check_field, check_vector, frames, reduce_cells};
@@ -369,17 +359,16 @@ impl ParticleStress {
 ///
 /// # Example
 ///
-/// A capsule in a Couette box, after a few steps; its membrane force rebuilt from the public
-/// state (see "Getting the membrane force of a state" in the [module docs](self)):
+/// A capsule in a Couette box, after a few steps, with its membrane force from
+/// [`Simulation::membrane_force`](crate::simulation::Simulation::membrane_force):
 ///
 /// ```
 /// use eulermembrane::diagnostics::suspension::{
 ///     ShearFrame, couette_shear_rate, particle_stress, wall_shear_stress,
 /// };
-/// use eulermembrane::fluid::Forcing;
 /// use eulermembrane::grid::{Boundary, Grid, VectorField};
 /// use eulermembrane::interface::shapes::Sphere;
-/// use eulermembrane::membrane::{InPlaneElasticity, NeoHookean};
+/// use eulermembrane::membrane::NeoHookean;
 /// use eulermembrane::simulation::{Phase, Scene};
 ///
 /// // Walls at z = -1 and z = 1 sliding at -1 and +1 along x: shear rate 1.
@@ -396,13 +385,9 @@ impl ParticleStress {
 ///     sim.step(5e-3)?;
 /// }
 ///
-/// // The in-plane force div(delta tau) of the current state, on the faces.
+/// // The membrane force div(delta tau) of the current state, on the faces.
 /// let mut force = VectorField::zeros(&grid);
-/// let band = sim.band(0)?;
-/// let gs = sim.gs(0)?.expect("the elasticity carries G_s");
-/// let mut elasticity = InPlaneElasticity::new(&grid, law);
-/// elasticity.evaluate(&grid, band, gs, sim.normal(0)?, sim.delta(0)?, 5e-3)?;
-/// elasticity.explicit_forcing(band)?.add(&grid, sim.time(), sim.velocity(), &mut force)?;
+/// sim.membrane_force(5e-3, &mut force)?;
 ///
 /// let frame = ShearFrame::new(0, 2)?; // flow along x, gradient along z
 /// let stress = particle_stress(&grid, &force, &[sim.phi(0)?], None)?;
