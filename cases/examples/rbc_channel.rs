@@ -34,7 +34,9 @@
 //!
 //! `--case many`: `--cells` cells (8) of `a = 0.06` on a lattice, periodic x and y (walls
 //! in z), `mu = 0.5 / 0.1`, `E_s = 0.1`, `alpha = 10`, `E_b = 5e-6`, `dt = 0.00025` (Sec. 3.4.3),
-//! an opt-in long run; works at reduced `--n`.
+//! an opt-in long run; works at reduced `--n`. Each cell keeps its fields on a box that follows
+//! it (`Settings::storage`, `--room R`: `CapsuleStorage::Boxed { room: R }`, 1.2 by default for
+//! `many`; `--room 0` keeps every cell on the whole grid, the default of the other cases).
 //!
 //! `--case replot --files A.csv,B.csv,...`: redraws `area.svg` (Fig. 12) from `area_alpha*.csv`
 //! files written by `--case single` runs, e.g. one process per alpha run side by side.
@@ -69,7 +71,9 @@ use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{BendingForm, Skalak};
-use eulermembrane::simulation::{BendingCoupling, GsTransport, Phase, Scene, Settings, Simulation, Traction};
+use eulermembrane::simulation::{
+    BendingCoupling, CapsuleStorage, GsTransport, Phase, Scene, Settings, Simulation, Traction,
+};
 use eulermembrane_cases::csv::{CsvWriter, read_columns, write_columns};
 use eulermembrane_cases::plot::{Figure, LineStyle, contour_segments};
 use std::path::{Path, PathBuf};
@@ -106,6 +110,8 @@ struct Numerics {
     traction: Traction,
     /// `Settings::epsilon`, the band of `delta h >= epsilon`.
     epsilon: f64,
+    /// `Settings::storage`: where each cell keeps its fields.
+    storage: CapsuleStorage,
 }
 
 impl Numerics {
@@ -134,6 +140,7 @@ const PAPER: Params = Params {
         bending_coupling: BendingCoupling::SemiImplicit { alpha: 1.0 },
         traction: Traction::Smoothed,
         epsilon: 0.01,
+        storage: CapsuleStorage::Whole,
     },
 };
 
@@ -150,6 +157,10 @@ fn run() -> BoxResult<()> {
         bending_coupling: args.bending_coupling()?,
         traction: args.traction("smoothed")?,
         epsilon: args.get("epsilon", PAPER.numerics.epsilon),
+        storage: match args.get("room", if case == "many" { 1.2 } else { 0.0 }) {
+            r if r > 0.0 => CapsuleStorage::Boxed { room: r },
+            _ => CapsuleStorage::Whole,
+        },
     };
     match case.as_str() {
         "single" => {
@@ -195,6 +206,7 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
             bending_coupling: p.numerics.bending_coupling,
             traction: p.numerics.traction,
             epsilon: p.numerics.epsilon,
+            storage: p.numerics.storage,
             ..Settings::default()
         })
         .build()
@@ -583,9 +595,16 @@ fn many(
             [(a as f64 + 0.5) * s, (b as f64 + 0.5) * s, 0.25 + if (a + b) % 2 == 0 { 0.06 } else { -0.06 }]
         })
         .collect();
+    let setup = Instant::now();
     let mut sim = scene(n, &p, &centres)?;
+    let setup_s = setup.elapsed().as_secs_f64();
     let steps = (t_end / dt).round() as usize;
-    eprintln!("rbc_channel many: {cells} cells, {n}^3, {steps} steps of dt = {dt}");
+    let boxes: Vec<String> =
+        (0..cells).map(|c| Ok(format!("{:?}", sim.window(c)?.size()))).collect::<BoxResult<_>>()?;
+    eprintln!(
+        "rbc_channel many: {cells} cells, {n}^3, {steps} steps of dt = {dt}; set-up {setup_s:.1} s; boxes {}",
+        boxes.join(" ")
+    );
     let v0: Vec<f64> = (0..cells).map(|c| sim.volume(c)).collect::<Result<_, _>>()?;
     let (mut pvd, mut next_vtk) = (PvdSeries::new(), 0.0);
     let clock = Instant::now();
@@ -612,7 +631,16 @@ fn many(
         ("cells", cells.to_string()),
         ("n", n.to_string()),
         ("volume_drift", num(drift.iter().cloned().fold(0.0, f64::max))),
+        ("setup_s", format!("{setup_s:.1}")),
+        ("steps", steps.to_string()),
         ("wall_s", format!("{:.1}", clock.elapsed().as_secs_f64())),
+        (
+            "storage",
+            match p.numerics.storage {
+                CapsuleStorage::Boxed { room } => format!("boxed_room_{room}"),
+                CapsuleStorage::Whole => "whole".into(),
+            },
+        ),
     ]);
     Ok(())
 }

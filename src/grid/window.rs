@@ -47,6 +47,7 @@
 
 use super::{Field, GHOST, Grid, SymField, VectorField};
 use crate::{Error, Real, Result};
+use std::ops::Range;
 
 /// A box of whole cells of a grid (see the [module docs](self)).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -218,33 +219,68 @@ impl Window {
         Ok(())
     }
 
-    fn gather_data<T: Real>(&self, grid: &Grid<T>, boxed: &Grid<T>, src: &[T], dst: &mut [T]) {
+    /// Every storage coordinate of the box, ghosts included.
+    fn storage(&self) -> [Range<usize>; 3] {
+        std::array::from_fn(|d| 0..self.map[d].len())
+    }
+
+    /// The interior storage coordinates of the box.
+    fn interior(&self) -> [Range<usize>; 3] {
+        std::array::from_fn(|d| GHOST..GHOST + self.size[d])
+    }
+
+    /// Copies `src` (whole grid) into `dst` (box) at the box storage coordinates `range`.
+    fn gather_data<T: Real>(
+        &self,
+        grid: &Grid<T>,
+        boxed: &Grid<T>,
+        src: &[T],
+        dst: &mut [T],
+        range: &[Range<usize>; 3],
+    ) {
         let (gs, bs) = (grid.strides(), boxed.strides());
-        let [mx, my, mz] = &self.map;
-        for (bk, &gk) in mz.iter().enumerate() {
-            for (bj, &gj) in my.iter().enumerate() {
-                let (grow, brow) = (gk * gs[2] + gj * gs[1], bk * bs[2] + bj * bs[1]);
+        let [mx, my, mz] = [0, 1, 2].map(|d| &self.map[d][range[d].clone()]);
+        let x0 = range[0].start;
+        for (bk, &gk) in range[2].clone().zip(mz) {
+            for (bj, &gj) in range[1].clone().zip(my) {
+                let (grow, brow) = (gk * gs[2] + gj * gs[1], bk * bs[2] + bj * bs[1] + x0);
                 let out = &mut dst[brow..brow + mx.len()];
                 if self.ring[0] {
                     out.iter_mut().zip(mx).for_each(|(o, &gi)| *o = src[grow + gi]);
                 } else {
-                    out.copy_from_slice(&src[grow..grow + mx.len()]);
+                    out.copy_from_slice(&src[grow + mx[0]..grow + mx[0] + mx.len()]);
                 }
             }
         }
     }
 
-    fn add_data<T: Real>(&self, grid: &Grid<T>, boxed: &Grid<T>, src: &[T], dst: &mut [T]) {
-        let (gs, bs, g) = (grid.strides(), boxed.strides(), GHOST);
-        let [mx, my, mz] = [0, 1, 2].map(|d| &self.map[d][g..self.map[d].len() - g]);
-        for (bk, &gk) in mz.iter().enumerate() {
-            for (bj, &gj) in my.iter().enumerate() {
-                let (grow, brow) = (gk * gs[2] + gj * gs[1], (bk + g) * bs[2] + (bj + g) * bs[1] + g);
+    /// Adds `src` (box) at the interior box storage coordinates `range` to `dst` (whole grid).
+    fn add_data<T: Real>(
+        &self,
+        grid: &Grid<T>,
+        boxed: &Grid<T>,
+        src: &[T],
+        dst: &mut [T],
+        range: &[Range<usize>; 3],
+    ) {
+        let (gs, bs) = (grid.strides(), boxed.strides());
+        let [mx, my, mz] = [0, 1, 2].map(|d| &self.map[d][range[d].clone()]);
+        let x0 = range[0].start;
+        for (bk, &gk) in range[2].clone().zip(mz) {
+            for (bj, &gj) in range[1].clone().zip(my) {
+                let (grow, brow) = (gk * gs[2] + gj * gs[1], bk * bs[2] + bj * bs[1] + x0);
                 for (bi, &gi) in mx.iter().enumerate() {
                     dst[grow + gi] += src[brow + bi];
                 }
             }
         }
+    }
+
+    /// The whole grid's storage index (in `grid`, of `dims`) of the interior box cell `c`.
+    #[inline]
+    pub(crate) fn grid_index(&self, dims: [usize; 3], c: [u32; 3]) -> usize {
+        let m = |d: usize| self.map[d][c[d] as usize + GHOST];
+        m(0) + dims[0] * (m(1) + dims[1] * m(2))
     }
 
     /// Copies the values of `src` on `grid` into every storage cell of `dst` on the box grid
@@ -264,7 +300,7 @@ impl Window {
         self.check(grid, boxed)?;
         sized(src, grid, "src")?;
         sized(dst, boxed, "dst")?;
-        self.gather_data(grid, boxed, &src.data, &mut dst.data);
+        self.gather_data(grid, boxed, &src.data, &mut dst.data, &self.storage());
         Ok(())
     }
 
@@ -302,7 +338,7 @@ impl Window {
         self.check(grid, boxed)?;
         sized(src, boxed, "src")?;
         sized(dst, grid, "dst")?;
-        self.add_data(grid, boxed, &src.data, &mut dst.data);
+        self.add_data(grid, boxed, &src.data, &mut dst.data, &self.interior());
         Ok(())
     }
 

@@ -876,6 +876,9 @@ fn cell_averages<T: Real>(
     let upper = grid.upper().map(|x| x.f64());
     let periodic: [bool; 3] = std::array::from_fn(|d| grid.is_periodic(d) && grid.n()[d] > 1);
     let center = shape.center();
+    let bounding = shape.bounding_radius();
+    // `2 bp |s| > 80`: the profile is 0 or 1 to round-off.
+    let far = 40.0 / bp;
     let [nx, ny, _] = grid.n();
     // Value at one point: (H, |grad H| kappa_R).
     let at = |x: [f64; 3]| -> [f64; 2] {
@@ -895,6 +898,15 @@ fn cell_averages<T: Real>(
                     let l = upper[d] - lower[d];
                     xc[d] -= l * ((xc[d] - ctr[d]) / l).round();
                 }
+            }
+        }
+        // Beyond the bounding ball by more than the profile's reach: 0 (what the distance
+        // would give, without computing it).
+        if let (Some(ctr), Some(r)) = (center, bounding) {
+            let dims = if planar { 2 } else { 3 };
+            let d2: f64 = (0..dims).map(|d| (xc[d] - ctr[d]).powi(2)).sum();
+            if d2 > (r + far).powi(2) {
+                return [0.0, 0.0];
             }
         }
         let s0 = shape.signed_distance(xc);

@@ -34,20 +34,33 @@ pub(crate) struct Level<T> {
 pub(crate) struct Boxed<T: Real> {
     pub(crate) window: Window,
     pub(crate) grid: Grid<T>,
-    /// Two staggered fields on the box grid (empty on a whole window).
-    velocity: Vec<VectorField<T>>,
-    /// Scratch of [`MembraneView::on_box`]: the gathered input and the box's output.
+    /// Two staggered fields on the box grid (allocated on first use, never on a whole window):
+    /// the velocities the capsule's kernels read, and the scratch of
+    /// [`MembraneView::on_box`] (its gathered input and its output), used at other times.
     pub(crate) scratch: std::sync::Mutex<Option<[VectorField<T>; 2]>>,
 }
 
 impl<T: Real> Boxed<T> {
     pub(crate) fn new(whole: &Grid<T>, window: Window) -> Self {
         let grid = window.grid(whole);
-        let velocity = match window.is_whole() {
-            true => Vec::new(),
-            false => vec![VectorField::zeros(&grid), VectorField::zeros(&grid)],
-        };
-        Boxed { window, grid, velocity, scratch: std::sync::Mutex::new(None) }
+        Boxed { window, grid, scratch: std::sync::Mutex::new(None) }
+    }
+
+    /// The staggered field `a` of the whole grid `whole` as the box sees it (see
+    /// [`velocities`](Self::velocities)).
+    pub(crate) fn velocity<'a>(
+        &'a mut self,
+        whole: &Grid<T>,
+        a: &'a VectorField<T>,
+    ) -> Result<(&'a Grid<T>, &'a VectorField<T>)> {
+        if self.window.is_whole() {
+            return Ok((&self.grid, a));
+        }
+        let grid = &self.grid;
+        let scratch = self.scratch.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let [ba, _] = scratch.get_or_insert_with(|| [VectorField::zeros(grid), VectorField::zeros(grid)]);
+        self.window.gather_vector(whole, a, &self.grid, ba)?;
+        Ok((&self.grid, ba))
     }
 
     /// The staggered fields `a` and `b` of the whole grid `whole` as the box sees them: the
@@ -62,7 +75,9 @@ impl<T: Real> Boxed<T> {
         if self.window.is_whole() {
             return Ok((&self.grid, a, b));
         }
-        let [ba, bb] = &mut self.velocity[..] else { unreachable!("two box velocities") };
+        let grid = &self.grid;
+        let scratch = self.scratch.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let [ba, bb] = scratch.get_or_insert_with(|| [VectorField::zeros(grid), VectorField::zeros(grid)]);
         self.window.gather_vector(whole, a, &self.grid, ba)?;
         self.window.gather_vector(whole, b, &self.grid, bb)?;
         Ok((&self.grid, ba, bb))
@@ -252,7 +267,7 @@ impl<T: Real> Capsule<T> {
         normals: &mut dyn NormalEstimator<T>,
     ) -> Result<usize> {
         self.next.copy_from(&self.cur);
-        let (grid, v, _) = self.boxed.velocities(whole, v, v)?;
+        let (grid, v) = self.boxed.velocity(whole, v)?;
         let info = self.transport.advance(grid, v, dt, &mut self.next.phi, self.next.kappa.as_mut())?;
         self.next.derive(grid, normals)?;
         if let Some(e) = self.extension.as_mut() {

@@ -69,6 +69,7 @@ use super::scene::{Phase, Settings};
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::membrane::{Band, SurfaceExtension, SurfaceLaw};
 use crate::{Error, Real, Result};
+use rayon::prelude::*;
 
 /// The fields an [`Effect`] needs on the capsules it acts on, beyond `phi` and what is derived
 /// from it (`delta`, normals, the membrane band), which every capsule has.
@@ -240,12 +241,26 @@ impl<T: Real> MembraneView<'_, T> {
         })?;
         let [bx, by] =
             lock.get_or_insert_with(|| [VectorField::zeros(self.grid), VectorField::zeros(self.grid)]);
-        self.window.gather_vector(grid, x, self.grid, bx)?;
-        for c in by.c.iter_mut() {
-            c.fill(T::zero());
-        }
+        // Only the faces of the band and its halo layers, where the membrane terms read and
+        // write (their stencils and the membrane map's reach two cells beyond the band).
+        let dims = grid.dims();
+        let cells = self.band.halo(crate::membrane::MAX_HALO);
+        let coords = self.band.coords(crate::membrane::MAX_HALO);
+        let w = self.window;
+        // One component a task: each writes its own field.
+        bx.c.par_iter_mut().zip(by.c.par_iter_mut()).zip(x.c.par_iter()).for_each(|((bx, by), x)| {
+            for (&b, &c) in cells.iter().zip(coords) {
+                bx.data[b] = x.data[w.grid_index(dims, c)];
+                by.data[b] = T::zero();
+            }
+        });
         f(self.grid, bx, by)?;
-        self.window.add_vector_to(self.grid, by, grid, out)
+        out.c.par_iter_mut().zip(by.c.par_iter()).for_each(|(out, by)| {
+            for (&b, &c) in cells.iter().zip(coords) {
+                out.data[w.grid_index(dims, c)] += by.data[b];
+            }
+        });
+        Ok(())
     }
 }
 
