@@ -229,6 +229,24 @@ impl Window {
         std::array::from_fn(|d| GHOST..GHOST + self.size[d])
     }
 
+    /// Calls `f(grid row start, box row start, box x coordinates, grid x coordinates)` for each
+    /// x-row of the box storage coordinates `range`.
+    fn rows<T: Real>(
+        &self,
+        grid: &Grid<T>,
+        boxed: &Grid<T>,
+        range: &[Range<usize>; 3],
+        mut f: impl FnMut(usize, usize, &[usize]),
+    ) {
+        let (gs, bs) = (grid.strides(), boxed.strides());
+        let [mx, my, mz] = [0, 1, 2].map(|d| &self.map[d][range[d].clone()]);
+        for (bk, &gk) in range[2].clone().zip(mz) {
+            for (bj, &gj) in range[1].clone().zip(my) {
+                f(gk * gs[2] + gj * gs[1], bk * bs[2] + bj * bs[1] + range[0].start, mx);
+            }
+        }
+    }
+
     /// Copies `src` (whole grid) into `dst` (box) at the box storage coordinates `range`.
     fn gather_data<T: Real>(
         &self,
@@ -238,20 +256,15 @@ impl Window {
         dst: &mut [T],
         range: &[Range<usize>; 3],
     ) {
-        let (gs, bs) = (grid.strides(), boxed.strides());
-        let [mx, my, mz] = [0, 1, 2].map(|d| &self.map[d][range[d].clone()]);
-        let x0 = range[0].start;
-        for (bk, &gk) in range[2].clone().zip(mz) {
-            for (bj, &gj) in range[1].clone().zip(my) {
-                let (grow, brow) = (gk * gs[2] + gj * gs[1], bk * bs[2] + bj * bs[1] + x0);
-                let out = &mut dst[brow..brow + mx.len()];
-                if self.ring[0] {
-                    out.iter_mut().zip(mx).for_each(|(o, &gi)| *o = src[grow + gi]);
-                } else {
-                    out.copy_from_slice(&src[grow + mx[0]..grow + mx[0] + mx.len()]);
-                }
+        let ring = self.ring[0];
+        self.rows(grid, boxed, range, |grow, brow, mx| {
+            let out = &mut dst[brow..brow + mx.len()];
+            if ring {
+                out.iter_mut().zip(mx).for_each(|(o, &gi)| *o = src[grow + gi]);
+            } else {
+                out.copy_from_slice(&src[grow + mx[0]..grow + mx[0] + mx.len()]);
             }
-        }
+        });
     }
 
     /// Adds `src` (box) at the interior box storage coordinates `range` to `dst` (whole grid).
@@ -263,17 +276,11 @@ impl Window {
         dst: &mut [T],
         range: &[Range<usize>; 3],
     ) {
-        let (gs, bs) = (grid.strides(), boxed.strides());
-        let [mx, my, mz] = [0, 1, 2].map(|d| &self.map[d][range[d].clone()]);
-        let x0 = range[0].start;
-        for (bk, &gk) in range[2].clone().zip(mz) {
-            for (bj, &gj) in range[1].clone().zip(my) {
-                let (grow, brow) = (gk * gs[2] + gj * gs[1], bk * bs[2] + bj * bs[1] + x0);
-                for (bi, &gi) in mx.iter().enumerate() {
-                    dst[grow + gi] += src[brow + bi];
-                }
+        self.rows(grid, boxed, range, |grow, brow, mx| {
+            for (bi, &gi) in mx.iter().enumerate() {
+                dst[grow + gi] += src[brow + bi];
             }
-        }
+        });
     }
 
     /// The whole grid's storage index (in `grid`, of `dims`) of the interior box cell `c`.
