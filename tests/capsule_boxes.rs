@@ -1,11 +1,14 @@
 //! Capsules on boxes that follow them ([`CapsuleStorage::Boxed`]) against the same capsules on
 //! the whole grid: the same fields to the profile tail, the volume to round-off, a box that
-//! crosses the periodic seam, bit-for-bit restart, and a capsule that outgrows its box.
+//! crosses the periodic seam, contact between boxes, bit-for-bit restart, and a capsule that
+//! outgrows its box.
 
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::{CapsuleStorage, Phase, Scene, Settings, Simulation, Traction};
+use eulermembrane::simulation::{
+    CapsuleStorage, Contact, Phase, Scene, Settings, Simulation, SurfaceLoad, Traction, min_gap_cells,
+};
 
 /// A neo-Hookean sphere of radius 0.25 (4 cells) carried along x across the periodic seam by a
 /// uniform flow with a shear wave on it, on the whole grid or on a box.
@@ -115,4 +118,46 @@ fn a_capsule_that_outgrows_its_box_fails_the_step_by_name() {
     let text = format!("{err} {err:?}");
     assert!(text.contains("CapsuleStorage::Boxed room"), "{text}");
     assert!(sim.steps() > before + 10, "failed at once: {text}");
+}
+
+/// Two capsules of radius 5 cells pushed together across the periodic seam (x = 0) by opposite
+/// surface loads, one cell apart at the start, with contact.
+fn collide_across_the_seam(storage: CapsuleStorage) -> (Simulation<f64>, Vec<f64>) {
+    let grid = Grid::periodic([40, 20, 20], [0.0; 3], [2.5, 1.25, 1.25]).unwrap();
+    let (r, gap) = (5.0 / 16.0, 1.0 / 16.0);
+    let x = r + 0.5 * gap;
+    let settings = Settings { storage, ..Settings::default() };
+    let mut sim = Scene::new(grid, Phase::new(1.0, 1.0).unwrap())
+        .capsule(Sphere::new([2.5 - x, 0.625, 0.625], r).unwrap())
+        .capsule(Sphere::new([x, 0.625, 0.625], r).unwrap())
+        .elasticity(NeoHookean::new(2.0).unwrap())
+        .effect(SurfaceLoad::new(|_, _| [2.0, 0.0, 0.0]).only([0]))
+        .effect(SurfaceLoad::new(|_, _| [-2.0, 0.0, 0.0]).only([1]))
+        .effect(Contact::new(20.0, 2.0).unwrap())
+        .settings(settings)
+        .build()
+        .unwrap();
+    let mut gaps = vec![min_gap_cells(&sim).unwrap()];
+    for _ in 0..60 {
+        sim.step(4e-3).unwrap();
+        gaps.push(min_gap_cells(&sim).unwrap());
+    }
+    (sim, gaps)
+}
+
+#[test]
+fn contact_acts_between_boxes_across_the_seam() {
+    let (whole, gw) = collide_across_the_seam(CapsuleStorage::Whole);
+    let (boxed, gb) = collide_across_the_seam(CapsuleStorage::Boxed { room: 1.2 });
+    assert!(boxed.window(0).unwrap().rings()[0] && boxed.window(1).unwrap().rings()[0]);
+    // The film is found and pushed on across the seam as on the whole grid.
+    assert!(gw[0] > 0.8 && gw[0] < 1.2, "start gap {} cells", gw[0]);
+    for (a, b) in gw.iter().zip(&gb) {
+        assert!((a - b).abs() < 1e-6, "gap {a} (whole grid) vs {b} (boxes)");
+    }
+    let dv = max_difference(&whole.velocity().c[0], &boxed.velocity().c[0], whole.grid());
+    assert!(dv < 1e-7, "velocities differ by {dv:e}");
+    assert!(whole.elastic_energy() > 0.0);
+    let (ea, eb) = (whole.elastic_energy(), boxed.elastic_energy());
+    assert!((ea - eb).abs() < 1e-6 * ea, "stored energy {ea:e} vs {eb:e}");
 }

@@ -223,16 +223,6 @@ impl<T: Real> Contact<T> {
     }
 }
 
-/// Contact between capsules is found on the whole grid: a capsule in a smaller box is refused.
-fn boxed_capsule(c: usize) -> Error {
-    Error::Unsupported {
-        component: "Contact",
-        detail: format!(
-            "capsule {c} keeps its fields in a box smaller than the grid; contact needs whole boxes"
-        ),
-    }
-}
-
 /// The harmonic soft-contact law `Pi(g) = p0 (1 - g / r)`.
 #[derive(Debug, Clone, Copy)]
 struct Law<T> {
@@ -294,12 +284,6 @@ impl CellBox {
         Some(b)
     }
 
-    fn intersection(&self, o: &Self) -> Option<Self> {
-        let lo: [usize; 3] = std::array::from_fn(|d| self.lo[d].max(o.lo[d]));
-        let hi: [usize; 3] = std::array::from_fn(|d| self.hi[d].min(o.hi[d]));
-        (0..3).all(|d| lo[d] <= hi[d]).then_some(CellBox { lo, hi })
-    }
-
     fn union(&self, o: &Self) -> Self {
         CellBox {
             lo: std::array::from_fn(|d| self.lo[d].min(o.lo[d])),
@@ -337,47 +321,134 @@ impl CellBox {
     }
 }
 
-/// Two capsules whose boxes overlap, and the overlap.
+/// Two capsules whose boxes overlap, and the overlap: `region`, the grid's cells (unwrapped on
+/// periodic axes) where both bands' boxes lie, and `cells`, those cells wrapped into the grid
+/// (the whole axis where they cross a periodic side).
 struct Pair<'a, T> {
     a: MembraneView<'a, T>,
     b: MembraneView<'a, T>,
+    region: [(isize, isize); 3],
     cells: CellBox,
 }
 
-/// The pairs of the capsules `selected` of `state` whose boxes overlap.
+/// A cell of a pair's overlap: its storage index in the grid and in each capsule's box.
+#[derive(Debug, Clone, Copy)]
+struct PairCell {
+    grid: usize,
+    a: usize,
+    b: usize,
+}
+
+/// The box coordinate of the grid's (unwrapped) cell `x` along axis `d` in the box of `m`, if it
+/// holds it.
+fn box_coord<T: Real>(grid: &Grid<T>, m: &MembraneView<'_, T>, d: usize, x: isize) -> Option<isize> {
+    let n = grid.n()[d] as isize;
+    let w = m.window;
+    let l = match (w.rings()[d], grid.is_periodic(d)) {
+        (true, _) => (x - w.first()[d]).rem_euclid(n),
+        (false, true) => x.rem_euclid(n),
+        (false, false) => x,
+    };
+    (0..w.size()[d] as isize).contains(&l).then_some(l)
+}
+
+/// The band's box of `m` (with its halo layers) in the grid's unwrapped cells.
+fn band_region<T: Real>(m: &MembraneView<'_, T>) -> Option<[(isize, isize); 3]> {
+    let b = CellBox::of_band(m.band)?;
+    let w = m.window;
+    Some(std::array::from_fn(|d| {
+        let off = if w.rings()[d] { w.first()[d] } else { 0 };
+        (b.lo[d] as isize + off, b.hi[d] as isize + off)
+    }))
+}
+
+/// The overlap of the intervals `a` and `b` of cells along an axis of `n` cells, periodic or not
+/// (in `a`'s unwrapped cells).
+fn overlap(a: (isize, isize), b: (isize, isize), n: isize, periodic: bool) -> Option<(isize, isize)> {
+    let meet = |b: (isize, isize)| {
+        let (lo, hi) = (a.0.max(b.0), a.1.min(b.1));
+        (lo <= hi).then_some((lo, hi))
+    };
+    if !periodic {
+        return meet(b);
+    }
+    if b.1 - b.0 + 1 >= n {
+        return Some(a);
+    }
+    if a.1 - a.0 + 1 >= n {
+        let k = (a.0 - b.0).div_euclid(n) + 1;
+        return Some((b.0 + k * n, b.1 + k * n));
+    }
+    let k = (a.0 - b.0).div_euclid(n);
+    (k - 1..=k + 2).find_map(|k| meet((b.0 + k * n, b.1 + k * n)))
+}
+
+/// The pairs of the capsules `selected` of `state` whose bands' boxes overlap.
 fn pairs<'a, T: Real>(
     state: &StepState<'a, T>,
     selected: impl Iterator<Item = usize>,
 ) -> Result<Vec<Pair<'a, T>>> {
+    let grid = state.grid;
+    let n = grid.n();
     let mut boxed = Vec::new();
     for c in selected {
         let m = state.membrane(c)?;
-        if !m.window.is_whole() {
-            return Err(boxed_capsule(c));
-        }
-        if let Some(b) = CellBox::of_band(m.band) {
-            boxed.push((m, b));
+        if let Some(r) = band_region(&m) {
+            boxed.push((m, r));
         }
     }
     let mut out = Vec::new();
-    for (i, (a, ba)) in boxed.iter().enumerate() {
-        for (b, bb) in &boxed[i + 1..] {
-            if let Some(cells) = ba.intersection(bb) {
-                out.push(Pair { a: *a, b: *b, cells });
-            }
+    for (i, (a, ra)) in boxed.iter().enumerate() {
+        for (b, rb) in &boxed[i + 1..] {
+            let region: [Option<(isize, isize)>; 3] =
+                std::array::from_fn(|d| overlap(ra[d], rb[d], n[d] as isize, grid.is_periodic(d)));
+            let [Some(x), Some(y), Some(z)] = region else { continue };
+            let region = [x, y, z];
+            let cells = CellBox {
+                lo: std::array::from_fn(|d| wrapped_span(region[d], n[d]).0),
+                hi: std::array::from_fn(|d| wrapped_span(region[d], n[d]).1),
+            };
+            out.push(Pair { a: *a, b: *b, region, cells });
         }
     }
     Ok(out)
 }
 
-/// Calls `f(storage index, g)` at every cell of the pair's box where both signed distances are
-/// read, with the local gap `g = d_a + d_b`.
-fn for_each_gap<T: Real>(grid: &Grid<T>, p: &Profile<T>, pair: &Pair<'_, T>, mut f: impl FnMut(usize, T)) {
-    pair.cells.for_each(grid, |idx, _| {
-        if let (Some(da), Some(db)) = (p.distance(pair.a.phi.data[idx]), p.distance(pair.b.phi.data[idx])) {
-            f(idx, da + db);
+/// The cells `lo..=hi` (unwrapped) wrapped into `0..n`: the whole axis where they cross a side.
+fn wrapped_span((lo, hi): (isize, isize), n: usize) -> (usize, usize) {
+    let (a, b) = (lo.rem_euclid(n as isize) as usize, hi.rem_euclid(n as isize) as usize);
+    if hi - lo + 1 >= n as isize || a > b { (0, n - 1) } else { (a, b) }
+}
+
+/// Calls `f(cell, g)` at every cell of the pair's overlap where both signed distances are read,
+/// with the local gap `g = d_a + d_b`, x fastest.
+fn for_each_gap<T: Real>(grid: &Grid<T>, p: &Profile<T>, pair: &Pair<'_, T>, mut f: impl FnMut(PairCell, T)) {
+    let (a, b) = (&pair.a, &pair.b);
+    let r = pair.region;
+    for z in r[2].0..=r[2].1 {
+        let (Some(az), Some(bz)) = (box_coord(grid, a, 2, z), box_coord(grid, b, 2, z)) else { continue };
+        for y in r[1].0..=r[1].1 {
+            let (Some(ay), Some(by)) = (box_coord(grid, a, 1, y), box_coord(grid, b, 1, y)) else { continue };
+            for x in r[0].0..=r[0].1 {
+                let (Some(ax), Some(bx)) = (box_coord(grid, a, 0, x), box_coord(grid, b, 0, x)) else {
+                    continue;
+                };
+                let at = PairCell {
+                    grid: grid.idx(wrap(grid, 0, x), wrap(grid, 1, y), wrap(grid, 2, z)),
+                    a: a.grid.idx(ax, ay, az),
+                    b: b.grid.idx(bx, by, bz),
+                };
+                if let (Some(da), Some(db)) = (p.distance(a.phi.data[at.a]), p.distance(b.phi.data[at.b])) {
+                    f(at, da + db);
+                }
+            }
         }
-    });
+    }
+}
+
+/// The grid's cell of the unwrapped cell `x` along axis `d`.
+fn wrap<T: Real>(grid: &Grid<T>, d: usize, x: isize) -> isize {
+    if grid.is_periodic(d) { x.rem_euclid(grid.n()[d] as isize) } else { x }
 }
 
 impl<T: Real> Law<T> {
@@ -409,35 +480,35 @@ impl<T: Real> Law<T> {
         grid: &Grid<T>,
         p: &Profile<T>,
         pair: &Pair<'_, T>,
-        mut f: impl FnMut(usize, T, [T; 6]),
+        mut f: impl FnMut(PairCell, T, [T; 6]),
     ) {
         let r = self.range(p);
         let half = T::lit(0.5);
         let (na, nb) = (pair.a.normal, pair.b.normal);
-        for_each_gap(grid, p, pair, |idx, g| {
+        for_each_gap(grid, p, pair, |at, g| {
             let pi = self.pressure(g, r);
             if pi == T::zero() {
                 return;
             }
-            let a: [T; 3] = std::array::from_fn(|d| na[d].data[idx]);
-            let b: [T; 3] = std::array::from_fn(|d| nb[d].data[idx]);
+            let a: [T; 3] = std::array::from_fn(|d| na[d].data[at.a]);
+            let b: [T; 3] = std::array::from_fn(|d| nb[d].data[at.b]);
             let mut s = [T::zero(); 6];
             for d in 0..3 {
                 for e in d..3 {
                     s[sym_index(d, e)] = half * (a[d] * b[e] + a[e] * b[d]);
                 }
             }
-            f(idx, pi, s);
+            f(at, pi, s);
         });
     }
 
     /// Adds `sigma = Pi (1 - phi_a - phi_b) S` of the pair to `sigma`.
     fn add_stress(&self, grid: &Grid<T>, p: &Profile<T>, pair: &Pair<'_, T>, sigma: &mut SymField<T>) {
         let (pa, pb) = (pair.a.phi, pair.b.phi);
-        self.for_each_stress(grid, p, pair, |idx, pi, s| {
-            let w = pi * (T::one() - pa.data[idx] - pb.data[idx]);
+        self.for_each_stress(grid, p, pair, |at, pi, s| {
+            let w = pi * (T::one() - pa.data[at.a] - pb.data[at.b]);
             for (c, sc) in sigma.c.iter_mut().zip(s) {
-                c.data[idx] += w * sc;
+                c.data[at.grid] += w * sc;
             }
         });
     }
@@ -447,10 +518,10 @@ impl<T: Real> Law<T> {
         let r = self.range(p);
         let (da, db) = (pair.a.delta, pair.b.delta);
         let mut e = 0.0;
-        for_each_gap(grid, p, pair, |idx, g| {
+        for_each_gap(grid, p, pair, |at, g| {
             let v = self.energy(g, r);
             if v > 0.0 {
-                e += v * 0.5 * (da.data[idx] + db.data[idx]).f64();
+                e += v * 0.5 * (da.data[at.a] + db.data[at.b]).f64();
             }
         });
         e * grid.cell_volume().f64()
@@ -501,11 +572,6 @@ impl<T: Real> Effect<T> for Contact<T> {
     }
     fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
         self.capsules.validate("contact", setup.capsules)?;
-        for c in (0..setup.capsules).filter(|&c| self.capsules.contains(c)) {
-            if setup.capsule_grid(c)? != setup.grid {
-                return Err(boxed_capsule(c));
-            }
-        }
         let beta = setup.settings.advection.beta;
         let p = Profile::new(setup.grid, beta);
         // The gap at a membrane must be read from the other capsule's profile, a cell beyond.
@@ -639,9 +705,9 @@ mod tests {
         let p = Profile::new(state.grid, state.settings.advection.beta);
         let mut out = [[0.0; 3]; 2];
         for pair in pairs(&state, 0..2).unwrap() {
-            law.for_each_stress(state.grid, &p, &pair, |idx, pi, s| {
-                for (c, m) in [pair.a, pair.b].iter().enumerate() {
-                    let g: [f64; 3] = std::array::from_fn(|d| m.delta.data[idx] * m.normal[d].data[idx]);
+            law.for_each_stress(state.grid, &p, &pair, |at, pi, s| {
+                for (c, (m, idx)) in [(pair.a, at.a), (pair.b, at.b)].iter().enumerate() {
+                    let g: [f64; 3] = std::array::from_fn(|d| m.delta.data[*idx] * m.normal[d].data[*idx]);
                     for d in 0..3 {
                         let sg: f64 = (0..3).map(|e| s[sym_index(d, e)] * g[e]).sum();
                         out[c][d] -= pi * sg;

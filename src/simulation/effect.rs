@@ -219,9 +219,12 @@ pub struct MembraneView<'a, T> {
 }
 
 impl<T: Real> MembraneView<'_, T> {
-    /// Runs `f(box_grid, x, y)` for this capsule: `x` is the staggered field `x` of the
-    /// simulation's grid `grid` as the capsule's box sees it, and what `f` adds to `y` is added
-    /// to `out` of `grid`. On a whole box `f` gets `grid`, `x` and `out` themselves.
+    /// Runs `f(box_grid, x, y)` for this capsule, for a force of its membrane: `x` is the
+    /// staggered field `x` of the simulation's grid `grid` as the capsule's box sees it, and what
+    /// `f` adds to `y` is added to `out` of `grid`, both on the faces of the band and its
+    /// [`MAX_HALO`](crate::membrane::MAX_HALO) halo layers only (where a membrane force and its
+    /// stencils reach; a force elsewhere, e.g. inside the capsule, is added to `out` directly).
+    /// On a whole box `f` gets `grid`, `x` and `out` themselves.
     ///
     /// # Errors
     /// Fields of another grid ([`Error::InvalidParameter`]); `f`'s own.
