@@ -1,55 +1,55 @@
 //! [`Window`]: a box of whole cells of a grid, where one capsule keeps its fields.
-//!
-//! A capsule's `phi` is 1 inside, 0 far outside and differs from 0 only within a few profile
-//! widths of its membrane, so its fields need only a box of cells around it. A window is such
-//! a box, aligned with the grid (the *whole grid*, whose flow it reads and whose forces and
-//! mixture it adds to):
-//!
-//! - along a periodic axis on which the box is shorter than the grid, the box is a *ring* of
-//!   `size` cells: its own grid ([`Window::grid`]) is periodic along that axis, with cell `b`
-//!   at the whole grid's cell `first + b` (unwrapped: a box may straddle the periodic seam,
-//!   and its positions then continue past the grid's upper side);
-//! - along any other axis (a wall axis, or a box as long as the grid) the box is the *whole
-//!   axis*, with the grid's own boundaries, cell for cell.
-//!
-//! A box as large as the grid is the grid itself ([`Window::whole`]): gathering copies every
-//! value, ghosts included, and adding back is adding field to field, bit for bit.
-//!
-//! Values move between the two by [`Window::gather`] (the whole grid's values into the box,
-//! ghosts included: on a ring axis a ghost is the box's own periodic image, as the box grid's
-//! ghost filling would make it) and [`Window::add_to`] (the box's interior added to the whole
-//! grid's cells). A ring's two ends meet in the box grid: what a capsule carries must be
-//! negligible there (its margin), and is carried across the seam exactly as a periodic grid
-//! carries it (nothing is lost). When the capsule moves, [`Window::shift`] moves the box by
-//! whole cells and rolls its fields with it (no interpolation).
-//!
-//! ```
-//! use eulermembrane::grid::{Field, Grid, Window};
-//!
-//! let g = Grid::<f64>::periodic([32, 32, 32], [0.0; 3], [1.0; 3])?;
-//! let f = Field::from_cell_fn(&g, |x| (6.283185307179586 * x[0]).sin());
-//! // A 12^3 box whose first cell is the grid's cell (-4, 10, 10): it straddles x = 0.
-//! let w = Window::new(&g, [-4, 10, 10], [12, 12, 12])?;
-//! let bg = w.grid(&g);
-//! assert_eq!(bg.n(), [12, 12, 12]);
-//! assert!((bg.lower()[0] + 0.125).abs() < 1e-15); // 4 cells left of x = 0
-//! let mut b = Field::zeros(&bg);
-//! w.gather(&g, &f, &bg, &mut b)?;
-//! // Box cell (0, 0, 0) holds the grid's cell (28, 10, 10), the periodic image of (-4, 10, 10).
-//! assert_eq!(b.at(&bg, 0, 0, 0), f.at(&g, 28, 10, 10));
-//! // Adding the box back to a zero field puts its 12^3 cells where they came from.
-//! let mut sum = Field::zeros(&g);
-//! w.add_to(&bg, &b, &g, &mut sum)?;
-//! assert_eq!(sum.at(&g, 28, 10, 10), f.at(&g, 28, 10, 10));
-//! assert_eq!(sum.at(&g, 9, 10, 10), 0.0); // outside the box
-//! # Ok::<(), eulermembrane::Error>(())
-//! ```
 
 use super::{Field, GHOST, Grid, SymField, VectorField};
 use crate::{Error, Real, Result};
 use std::ops::Range;
 
-/// A box of whole cells of a grid (see the [module docs](self)).
+/// A box of whole cells of a grid, where one capsule keeps its fields.
+///
+/// A capsule's `phi` is 1 inside, 0 far outside and differs from 0 only within a few profile
+/// widths of its membrane, so its fields need only a box of cells around it. A window is such
+/// a box, aligned with the grid (the *whole grid*, whose flow it reads and whose forces and
+/// mixture it adds to):
+///
+/// - along a periodic axis on which the box is shorter than the grid, the box is a *ring* of
+///   `size` cells: its own grid ([`Window::grid`]) is periodic along that axis, with cell `b`
+///   at the whole grid's cell `first + b` (unwrapped: a box may straddle the periodic seam,
+///   and its positions then continue past the grid's upper side);
+/// - along any other axis (a wall axis, or a box as long as the grid) the box is the *whole
+///   axis*, with the grid's own boundaries, cell for cell.
+///
+/// A box as large as the grid is the grid itself ([`Window::whole`]): gathering copies every
+/// value, ghosts included, and adding back is adding field to field, bit for bit.
+///
+/// Values move between the two by [`Window::gather`] (the whole grid's values into the box,
+/// ghosts included: on a ring axis a ghost is the box's own periodic image, as the box grid's
+/// ghost filling would make it) and [`Window::add_to`] (the box's interior added to the whole
+/// grid's cells). A ring's two ends meet in the box grid: what a capsule carries must be
+/// negligible there (its margin), and is carried across the seam exactly as a periodic grid
+/// carries it (nothing is lost). When the capsule moves, [`Window::shift`] moves the box by
+/// whole cells and rolls its fields with it (no interpolation).
+///
+/// ```
+/// use eulermembrane::grid::{Field, Grid, Window};
+///
+/// let g = Grid::<f64>::periodic([32, 32, 32], [0.0; 3], [1.0; 3])?;
+/// let f = Field::from_cell_fn(&g, |x| (6.283185307179586 * x[0]).sin());
+/// // A 12^3 box whose first cell is the grid's cell (-4, 10, 10): it straddles x = 0.
+/// let w = Window::new(&g, [-4, 10, 10], [12, 12, 12])?;
+/// let bg = w.grid(&g);
+/// assert_eq!(bg.n(), [12, 12, 12]);
+/// assert!((bg.lower()[0] + 0.125).abs() < 1e-15); // 4 cells left of x = 0
+/// let mut b = Field::zeros(&bg);
+/// w.gather(&g, &f, &bg, &mut b)?;
+/// // Box cell (0, 0, 0) holds the grid's cell (28, 10, 10), the periodic image of (-4, 10, 10).
+/// assert_eq!(b.at(&bg, 0, 0, 0), f.at(&g, 28, 10, 10));
+/// // Adding the box back to a zero field puts its 12^3 cells where they came from.
+/// let mut sum = Field::zeros(&g);
+/// w.add_to(&bg, &b, &g, &mut sum)?;
+/// assert_eq!(sum.at(&g, 28, 10, 10), f.at(&g, 28, 10, 10));
+/// assert_eq!(sum.at(&g, 9, 10, 10), 0.0); // outside the box
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Window {
     /// Cells of the whole grid.
