@@ -247,17 +247,10 @@ impl Window {
         }
     }
 
-    /// Copies `src` (whole grid) into `dst` (box) at the box storage coordinates `range`.
-    fn gather_data<T: Real>(
-        &self,
-        grid: &Grid<T>,
-        boxed: &Grid<T>,
-        src: &[T],
-        dst: &mut [T],
-        range: &[Range<usize>; 3],
-    ) {
+    /// Copies `src` (whole grid) into every storage cell of `dst` (box), ghosts included.
+    fn gather_data<T: Real>(&self, grid: &Grid<T>, boxed: &Grid<T>, src: &[T], dst: &mut [T]) {
         let ring = self.ring[0];
-        self.rows(grid, boxed, range, |grow, brow, mx| {
+        self.rows(grid, boxed, &self.storage(), |grow, brow, mx| {
             let out = &mut dst[brow..brow + mx.len()];
             if ring {
                 out.iter_mut().zip(mx).for_each(|(o, &gi)| *o = src[grow + gi]);
@@ -267,16 +260,9 @@ impl Window {
         });
     }
 
-    /// Adds `src` (box) at the interior box storage coordinates `range` to `dst` (whole grid).
-    fn add_data<T: Real>(
-        &self,
-        grid: &Grid<T>,
-        boxed: &Grid<T>,
-        src: &[T],
-        dst: &mut [T],
-        range: &[Range<usize>; 3],
-    ) {
-        self.rows(grid, boxed, range, |grow, brow, mx| {
+    /// Adds the interior of `src` (box) to `dst` (whole grid).
+    fn add_data<T: Real>(&self, grid: &Grid<T>, boxed: &Grid<T>, src: &[T], dst: &mut [T]) {
+        self.rows(grid, boxed, &self.interior(), |grow, brow, mx| {
             for (bi, &gi) in mx.iter().enumerate() {
                 dst[grow + gi] += src[brow + bi];
             }
@@ -307,7 +293,7 @@ impl Window {
         self.check(grid, boxed)?;
         sized(src, grid, "src")?;
         sized(dst, boxed, "dst")?;
-        self.gather_data(grid, boxed, &src.data, &mut dst.data, &self.storage());
+        self.gather_data(grid, boxed, &src.data, &mut dst.data);
         Ok(())
     }
 
@@ -345,7 +331,7 @@ impl Window {
         self.check(grid, boxed)?;
         sized(src, boxed, "src")?;
         sized(dst, grid, "dst")?;
-        self.add_data(grid, boxed, &src.data, &mut dst.data, &self.interior());
+        self.add_data(grid, boxed, &src.data, &mut dst.data);
         Ok(())
     }
 

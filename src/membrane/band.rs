@@ -419,6 +419,19 @@ impl<T: Real> Band<T> {
         &self.cells[..self.end[r.min(MAX_HALO)]]
     }
 
+    /// The smallest and largest interior coordinates, per axis, of the cells of
+    /// [`halo`](Self::halo)`(r)` (`None` for an empty band).
+    pub(crate) fn bounds(&self, r: usize) -> Option<([usize; 3], [usize; 3])> {
+        let coords = self.coords(r);
+        let first = coords.first()?.map(|x| x as usize);
+        Some(coords.iter().fold((first, first), |(lo, hi), c| {
+            (
+                std::array::from_fn(|d| lo[d].min(c[d] as usize)),
+                std::array::from_fn(|d| hi[d].max(c[d] as usize)),
+            )
+        }))
+    }
+
     /// Interior coordinates `(i, j, k)` of the entries of [`halo`](Self::halo)`(r)`.
     pub fn coords(&self, r: usize) -> &[[u32; 3]] {
         &self.ijk[..self.end[r.min(MAX_HALO)]]

@@ -56,9 +56,7 @@ impl<T: Real> Boxed<T> {
         if self.window.is_whole() {
             return Ok((&self.grid, a));
         }
-        let grid = &self.grid;
-        let scratch = self.scratch.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let [ba, _] = scratch.get_or_insert_with(|| [VectorField::zeros(grid), VectorField::zeros(grid)]);
+        let [ba, _] = box_fields(&self.grid, &mut self.scratch);
         self.window.gather_vector(whole, a, &self.grid, ba)?;
         Ok((&self.grid, ba))
     }
@@ -75,13 +73,20 @@ impl<T: Real> Boxed<T> {
         if self.window.is_whole() {
             return Ok((&self.grid, a, b));
         }
-        let grid = &self.grid;
-        let scratch = self.scratch.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let [ba, bb] = scratch.get_or_insert_with(|| [VectorField::zeros(grid), VectorField::zeros(grid)]);
+        let [ba, bb] = box_fields(&self.grid, &mut self.scratch);
         self.window.gather_vector(whole, a, &self.grid, ba)?;
         self.window.gather_vector(whole, b, &self.grid, bb)?;
         Ok((&self.grid, ba, bb))
     }
+}
+
+/// The two staggered fields of a box's `scratch` on its grid `grid`, made on first use.
+fn box_fields<'a, T: Real>(
+    grid: &Grid<T>,
+    scratch: &'a mut std::sync::Mutex<Option<[VectorField<T>; 2]>>,
+) -> &'a mut [VectorField<T>; 2] {
+    let s = scratch.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner);
+    s.get_or_insert_with(|| [VectorField::zeros(grid), VectorField::zeros(grid)])
 }
 
 /// One capsule of a [`Simulation`](super::Simulation).
@@ -300,15 +305,10 @@ impl<T: Real> Capsule<T> {
             LevelChoice::Next => &self.next.band,
         };
         let w = &self.boxed.window;
-        let size = w.size();
+        let (size, bounds) = (w.size(), band.bounds(0));
         std::array::from_fn(|d| {
-            if !w.rings()[d] {
-                return None;
-            }
-            let coords = band.coords(0);
-            let lo = coords.iter().map(|c| c[d] as usize).min()?;
-            let hi = coords.iter().map(|c| c[d] as usize).max()?;
-            Some((lo, size[d] - 1 - hi))
+            let (lo, hi) = bounds.filter(|_| w.rings()[d])?;
+            Some((lo[d], size[d] - 1 - hi[d]))
         })
     }
 

@@ -272,16 +272,7 @@ impl CellBox {
     /// The bounding box of the band of a membrane and its [`MAX_HALO`] layers (`None` for an
     /// empty band).
     fn of_band<T: Real>(band: &Band<T>) -> Option<Self> {
-        let coords = band.coords(MAX_HALO);
-        let first = coords.first()?.map(|x| x as usize);
-        let mut b = CellBox { lo: first, hi: first };
-        for c in coords {
-            for d in 0..3 {
-                b.lo[d] = b.lo[d].min(c[d] as usize);
-                b.hi[d] = b.hi[d].max(c[d] as usize);
-            }
-        }
-        Some(b)
+        band.bounds(MAX_HALO).map(|(lo, hi)| CellBox { lo, hi })
     }
 
     fn union(&self, o: &Self) -> Self {

@@ -434,12 +434,13 @@ impl<T: Real> Simulation<T> {
         self.prepared_capsules = 0;
         // Each box follows its capsule: the membrane band centred (a transport that cannot
         // move leaves its box where it is and reports it).
-        for cap in &mut self.capsules {
+        for (cap, boxed_grid) in self.capsules.iter_mut().zip(&mut self.capsule_grids) {
             for (d, room) in cap.room(LevelChoice::Current).into_iter().enumerate() {
                 let Some((lo, hi)) = room else { continue };
                 let off = (lo as isize - hi as isize) / 2;
                 if off != 0 {
                     cap.shift(&self.grid, d, off, self.normals.as_mut())?;
+                    *boxed_grid = cap.boxed.grid.clone();
                 }
             }
         }
@@ -825,12 +826,9 @@ fn update_materials<T: Real>(
     w.fill(T::zero());
     for c in caps {
         let phi = if next { &c.next.phi } else { &c.cur.phi };
-        if c.boxed.window.is_whole() {
-            w.data.iter_mut().zip(&phi.data).for_each(|(w, p)| *w += *p);
-        } else {
-            // The box grid and fields are the capsule's own: this cannot fail.
-            let _ = c.boxed.window.add_to(&c.boxed.grid, phi, grid, w);
-        }
+        // The box grid and fields are the capsule's own: this cannot fail. (Only the interior
+        // is summed: the ghosts of the coefficients are filled below.)
+        let _ = c.boxed.window.add_to(&c.boxed.grid, phi, grid, w);
     }
     for (coef, (xa, xb)) in fields {
         if let Coefficient::Field(f) = coef {
