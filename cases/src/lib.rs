@@ -22,6 +22,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+pub mod cost;
 pub mod csv;
 mod files;
 pub mod flows;
