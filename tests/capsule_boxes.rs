@@ -1,7 +1,7 @@
 //! Capsules on boxes that follow them ([`CapsuleStorage::Boxed`]) against the same capsules on
 //! the whole grid: the same fields to the profile tail, the volume to round-off, a box that
-//! crosses the periodic seam, contact between boxes, bit-for-bit restart, and a capsule that
-//! outgrows its box.
+//! crosses the periodic seam, a box that leaves a wall, contact between boxes, bit-for-bit
+//! restart, and a capsule that outgrows its box.
 
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
@@ -75,6 +75,72 @@ fn a_boxed_capsule_follows_the_whole_grid_capsule_across_the_seam() {
         let dv = max_difference(&whole.velocity().c[0], &boxed.velocity().c[0], g);
         assert!(dv < 1e-7, "{traction:?}: velocities differ by {dv:e}");
     }
+}
+
+/// A neo-Hookean sphere of radius 0.25 (4 cells) centred at height `z` between two walls
+/// (z = 0 and 4) pushed up the channel by a surface load, on the whole grid or on a box.
+fn pushed_up(storage: CapsuleStorage, z: f64) -> Simulation<f64> {
+    let mut bc = [[Boundary::Periodic; 2]; 3];
+    bc[2] = [Boundary::wall(), Boundary::wall()];
+    let grid = Grid::new([16, 16, 64], [0.0; 3], [1.0, 1.0, 4.0], bc).unwrap();
+    let settings = Settings { storage, ..Settings::default() };
+    Scene::new(grid, Phase::new(1.0, 1.0).unwrap())
+        .capsule(Sphere::new([0.5, 0.5, z], 0.25).unwrap())
+        .elasticity(NeoHookean::new(5.0).unwrap())
+        .effect(SurfaceLoad::new(|_, _| [0.0, 0.0, 12.0]))
+        .settings(settings)
+        .build()
+        .unwrap()
+}
+
+/// Runs `steps` steps on the whole grid and on a box from height `z`; returns the box's first
+/// cell along z before and after, and the largest differences (centroid z, phi, relative
+/// elastic energy, velocity) and the volume drift of the boxed and the whole-grid capsule.
+fn boxed_against_whole_along_a_wall_axis(z: f64, steps: usize) -> ([isize; 2], [f64; 6]) {
+    let mut whole = pushed_up(CapsuleStorage::Whole, z);
+    let mut boxed = pushed_up(CapsuleStorage::Boxed { room: 1.2 }, z);
+    let w0 = boxed.window(0).unwrap().clone();
+    assert_eq!(w0.segments(), [false, false, true]);
+    assert!((35..=36).contains(&w0.size()[2]), "{:?}", w0.size());
+    let v0 = boxed.volume(0).unwrap();
+    for _ in 0..steps {
+        whole.step(0.01).unwrap();
+        boxed.step(0.01).unwrap();
+    }
+    let g = whole.grid();
+    let (ea, eb) = (whole.elastic_energy(), boxed.elastic_energy());
+    assert!(ea > 0.0);
+    // The box grid is periodic along z: its centroid takes minimum images; on the grid it is
+    // the whole grid's.
+    let on_grid = eulermembrane::diagnostics::centroid(g, &phi_on_grid(&boxed)).unwrap();
+    let d = [
+        (whole.centroid(0).unwrap()[2] - on_grid[2]).abs(),
+        max_difference(&phi_on_grid(&boxed), whole.phi(0).unwrap(), g),
+        (ea - eb).abs() / ea,
+        max_difference(&whole.velocity().c[2], &boxed.velocity().c[2], g),
+        boxed.volume(0).unwrap() / v0 - 1.0,
+        whole.volume(0).unwrap() / v0 - 1.0,
+    ];
+    eprintln!(
+        "z = {z}: box first z {} -> {}, differences {d:?}",
+        w0.first()[2],
+        boxed.window(0).unwrap().first()[2]
+    );
+    ([w0.first()[2], boxed.window(0).unwrap().first()[2]], d)
+}
+
+#[test]
+fn a_boxed_capsule_moves_along_a_wall_axis_as_the_whole_grid_capsule_does() {
+    // Away from the walls (its surface 15 cells from the lower one) the box is a segment of z
+    // (4.8 + 12 cells each side of the centre) and moves with the capsule.
+    let (first, d) = boxed_against_whole_along_a_wall_axis(1.2, 150);
+    assert!(first[0] > 0 && first[1] > first[0] + 2, "the box moved up: {first:?}");
+    assert!(d[0] < 1e-8 && d[1] < 1e-7 && d[2] < 1e-7 && d[3] < 1e-7, "differences {d:?}");
+    assert!(d[4].abs() < 1e-10, "volume drift {:e} (whole grid {:e})", d[4], d[5]);
+    // Near a wall (surface 5.6 cells away) the box would reach past it: the whole axis.
+    let near = pushed_up(CapsuleStorage::Boxed { room: 1.2 }, 0.6);
+    let w = near.window(0).unwrap();
+    assert_eq!((w.segments(), w.size()[2]), ([false; 3], 64));
 }
 
 #[test]

@@ -115,15 +115,24 @@ impl<T: Real> Grid<T> {
 
     /// The grid of a box of `size` whole cells of this grid whose cell 0 is this grid's cell
     /// `first` (unwrapped: it may lie outside `[0, n)` on a periodic axis), periodic where
-    /// `ring[d]`, else with this grid's boundaries; the spacing is this grid's, bit for bit.
+    /// `ring[d]` or `segment[d]` (a part of a wall axis), else with this grid's boundaries; the
+    /// spacing is this grid's, bit for bit.
     /// The caller (a [`Window`](super::Window)) has checked the sizes.
-    pub(crate) fn sub_grid(&self, first: [isize; 3], size: [usize; 3], ring: [bool; 3]) -> Self {
+    pub(crate) fn sub_grid(
+        &self,
+        first: [isize; 3],
+        size: [usize; 3],
+        ring: [bool; 3],
+        segment: [bool; 3],
+    ) -> Self {
         let mut g = self.clone();
         for d in 0..3 {
-            if ring[d] {
+            if ring[d] || segment[d] {
                 let at = |c: isize| self.lower[d] + T::from_isize(c).unwrap_or(T::zero()) * self.h[d];
                 g.lower[d] = at(first[d]);
                 g.upper[d] = at(first[d] + size[d] as isize);
+            }
+            if ring[d] || segment[d] {
                 g.bc[d] = [Boundary::Periodic; 2];
             }
         }

@@ -15,8 +15,14 @@ use std::ops::Range;
 ///   `size` cells: its own grid ([`Window::grid`]) is periodic along that axis, with cell `b`
 ///   at the whole grid's cell `first + b` (unwrapped: a box may straddle the periodic seam,
 ///   and its positions then continue past the grid's upper side);
-/// - along any other axis (a wall axis, or a box as long as the grid) the box is the *whole
-///   axis*, with the grid's own boundaries, cell for cell.
+/// - along a wall axis on which the box is shorter than the grid, the box is a *segment* of
+///   `size` cells between the walls, cell `b` at the grid's cell `first + b` with
+///   `0 <= first <= n - size`, and a ring all the same: its own grid is periodic along that
+///   axis (its two ends meet in the capsule's far field, as a ring's do; where a segment
+///   touches a wall, the wall's face carries no flow and the capsule keeps its band the room's
+///   cells away from it);
+/// - along any other axis (a box as long as the grid) the box is the *whole axis*, with the
+///   grid's own boundaries, cell for cell.
 ///
 /// A box as large as the grid is the grid itself ([`Window::whole`]): gathering copies every
 /// value, ghosts included, and adding back is adding field to field, bit for bit.
@@ -60,6 +66,8 @@ pub struct Window {
     first: [isize; 3],
     /// Whether the box is a ring (shorter than the grid, periodic) along each axis.
     ring: [bool; 3],
+    /// Whether the box is a segment (shorter than the grid, a wall axis) along each axis.
+    segment: [bool; 3],
     /// Per axis, the whole grid's storage coordinate (ghost offset included) of each box
     /// storage coordinate, ghosts included.
     map: [Vec<usize>; 3],
@@ -76,47 +84,57 @@ fn sized<T: Real>(f: &Field<T>, grid: &Grid<T>, name: &'static str) -> Result<()
 }
 
 const SIZE_NAMES: [&str; 3] = ["size[0]", "size[1]", "size[2]"];
+const FIRST_NAMES: [&str; 3] = ["first[0]", "first[1]", "first[2]"];
 
 impl Window {
     /// The whole grid: every axis whole.
     pub fn whole<T: Real>(grid: &Grid<T>) -> Self {
-        Self::build(grid.n(), [0; 3], grid.n(), [false; 3])
+        Self::build(grid.n(), [0; 3], grid.n(), [false; 3], [false; 3])
     }
 
     /// The box of `size` cells whose cell 0 is the grid's cell `first` (unwrapped on periodic
-    /// axes: any integer). An axis where `size` is at least the grid's cell count is whole
-    /// (`first` is then ignored there).
+    /// axes: any integer; on wall axes `0 <= first <= n - size`). An axis where `size` is at
+    /// least the grid's cell count is whole (`first` is then ignored there).
     ///
     /// # Errors
-    /// [`Error::InvalidParameter`] naming `size[d]` for a box shorter than the grid along a
-    /// wall axis (a box ends only on a periodic axis), or for a ring of fewer than 4 cells.
+    /// [`Error::InvalidParameter`] naming `size[d]` for a ring or segment of fewer than 4 cells,
+    /// or `first[d]` for a segment that leaves the grid along a wall axis.
     pub fn new<T: Real>(grid: &Grid<T>, first: [isize; 3], size: [usize; 3]) -> Result<Self> {
         let n = grid.n();
         let mut ring = [false; 3];
+        let mut segment = [false; 3];
         let (mut f, mut s) = (first, size);
         for d in 0..3 {
             if size[d] >= n[d] {
                 (f[d], s[d]) = (0, n[d]);
                 continue;
             }
-            if !grid.is_periodic(d) {
-                return Err(Error::invalid(
-                    SIZE_NAMES[d],
-                    format!("{} along wall axis {d} of {} cells", size[d], n[d]),
-                    "the whole axis along a wall axis (a box ends only on a periodic axis)",
-                ));
-            }
             if size[d] < 4 {
                 return Err(Error::invalid(SIZE_NAMES[d], size[d], "at least 4 cells"));
             }
-            ring[d] = true;
+            if grid.is_periodic(d) {
+                ring[d] = true;
+                continue;
+            }
+            let last = (n[d] - size[d]) as isize;
+            if !(0..=last).contains(&first[d]) {
+                return Err(Error::invalid(
+                    FIRST_NAMES[d],
+                    format!(
+                        "{} for a box of {} cells along wall axis {d} of {} cells (at most {last})",
+                        first[d], size[d], n[d]
+                    ),
+                    "a first cell from 0 to the grid's cells less the box's (a box ends at the walls)",
+                ));
+            }
+            segment[d] = true;
         }
-        Ok(Self::build(n, f, s, ring))
+        Ok(Self::build(n, f, s, ring, segment))
     }
 
     /// The smallest box that holds the cells whose centres lie within `[lo, hi]` (positions of
-    /// the grid, unwrapped) and `margin` cells around them, whole along every wall axis and
-    /// wherever it would be at least as long as the grid.
+    /// the grid, unwrapped) and `margin` cells around them, whole wherever it would be at least
+    /// as long as the grid and along a wall axis where it would reach past a wall.
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] naming `lo` or `hi` unless finite with `lo <= hi`.
@@ -132,23 +150,30 @@ impl Window {
                     "finite corners with lo <= hi",
                 ));
             }
-            if !grid.is_periodic(d) {
-                size[d] = grid.n()[d];
-                continue;
-            }
             let cell = |x: f64| (x - lower[d].f64()) / h[d].f64() - 0.5;
             let (a, b) = (cell(lo[d]).floor() as isize, cell(hi[d]).ceil() as isize);
             first[d] = a - margin as isize;
-            size[d] = (b - a + 1) as usize + 2 * margin;
+            size[d] = ((b - a + 1) as usize + 2 * margin).max(4);
+            // Along a wall axis a box that would reach past a wall is the whole axis.
+            let n = grid.n()[d];
+            if !grid.is_periodic(d) && (first[d] < 0 || first[d] + size[d] as isize > n as isize) {
+                (first[d], size[d]) = (0, n);
+            }
         }
-        Self::new(grid, first, size.map(|s| s.max(4)))
+        Self::new(grid, first, size)
     }
 
-    fn build(n: [usize; 3], first: [isize; 3], size: [usize; 3], ring: [bool; 3]) -> Self {
+    fn build(
+        n: [usize; 3],
+        first: [isize; 3],
+        size: [usize; 3],
+        ring: [bool; 3],
+        segment: [bool; 3],
+    ) -> Self {
         let g = GHOST as isize;
         let map = std::array::from_fn(|d| {
             (-g..size[d] as isize + g)
-                .map(|b| match ring[d] {
+                .map(|b| match ring[d] || segment[d] {
                     true => {
                         let cell = first[d] + b.rem_euclid(size[d] as isize);
                         (cell.rem_euclid(n[d] as isize) + g) as usize
@@ -157,7 +182,7 @@ impl Window {
                 })
                 .collect()
         });
-        Window { n, size, first, ring, map }
+        Window { n, size, first, ring, segment, map }
     }
 
     /// Cells of the box along each axis.
@@ -175,9 +200,19 @@ impl Window {
         self.ring
     }
 
+    /// Whether the box is a segment (a wall axis it does not span) along each axis.
+    pub fn segments(&self) -> [bool; 3] {
+        self.segment
+    }
+
+    /// Whether the box can move along each axis: a ring or a segment.
+    pub fn movable(&self) -> [bool; 3] {
+        std::array::from_fn(|d| self.ring[d] || self.segment[d])
+    }
+
     /// Whether the box is the whole grid.
     pub fn is_whole(&self) -> bool {
-        self.ring == [false; 3]
+        self.ring == [false; 3] && self.segment == [false; 3]
     }
 
     /// Number of cells of the box (its share of a field's storage, without ghosts).
@@ -188,7 +223,7 @@ impl Window {
     /// The box's own grid: this window's cells of `grid`, periodic along its ring axes, with
     /// `grid`'s spacing and positions (unwrapped).
     pub fn grid<T: Real>(&self, grid: &Grid<T>) -> Grid<T> {
-        grid.sub_grid(self.first, self.size, self.ring)
+        grid.sub_grid(self.first, self.size, self.ring, self.segment)
     }
 
     /// The whole grid's cell (wrapped into `[0, n)` on periodic axes) of box cell `b` (ghosts
@@ -249,7 +284,7 @@ impl Window {
 
     /// Copies `src` (whole grid) into every storage cell of `dst` (box), ghosts included.
     fn gather_data<T: Real>(&self, grid: &Grid<T>, boxed: &Grid<T>, src: &[T], dst: &mut [T]) {
-        let ring = self.ring[0];
+        let ring = self.ring[0] || self.segment[0];
         self.rows(grid, boxed, &self.storage(), |grow, brow, mx| {
             let out = &mut dst[brow..brow + mx.len()];
             if ring {
@@ -352,18 +387,30 @@ impl Window {
         Ok(())
     }
 
-    /// Moves the box by `by` cells along ring axis `axis` (the box grid then starts `by` cells
-    /// further: make it anew with [`grid`](Self::grid), and [`roll`](Self::roll) every field
-    /// the box holds). A whole axis does not move.
+    /// Moves the box by `by` cells along ring or segment axis `axis` (the box grid then starts
+    /// `by` cells further: make it anew with [`grid`](Self::grid), and [`roll`](Self::roll)
+    /// every field the box holds). A whole axis does not move; a segment stays between the
+    /// walls ([`clamp_shift`](Self::clamp_shift) gives the move it allows).
     ///
     /// # Errors
-    /// [`Error::InvalidParameter`] naming `axis` for an axis that is not a ring.
+    /// [`Error::InvalidParameter`] naming `axis` for an axis that is neither a ring nor a
+    /// segment, or `by` for a segment moved beyond a wall.
     pub fn shift(&mut self, axis: usize, by: isize) -> Result<()> {
-        if axis > 2 || !self.ring[axis] {
+        if axis > 2 || !self.movable()[axis] {
             return Err(Error::invalid(
                 "axis",
                 axis,
-                "a ring axis of the window (a periodic axis it does not span)",
+                "a ring or segment axis of the window (an axis it does not span)",
+            ));
+        }
+        if self.clamp_shift(axis, by) != by {
+            return Err(Error::invalid(
+                "by",
+                format!(
+                    "{by} cells along wall axis {axis} for a box whose first cell is {}",
+                    self.first[axis]
+                ),
+                "a move that keeps the box between the walls (Window::clamp_shift)",
             ));
         }
         *self = Self::build(
@@ -371,8 +418,22 @@ impl Window {
             std::array::from_fn(|d| self.first[d] + if d == axis { by } else { 0 }),
             self.size,
             self.ring,
+            self.segment,
         );
         Ok(())
+    }
+
+    /// The part of a move by `by` cells along `axis` that keeps a segment between the walls
+    /// (`by` itself on a ring, 0 on a whole axis).
+    pub fn clamp_shift(&self, axis: usize, by: isize) -> isize {
+        match (self.ring.get(axis), self.segment.get(axis)) {
+            (Some(true), _) => by,
+            (_, Some(true)) => {
+                let last = (self.n[axis] - self.size[axis]) as isize;
+                (self.first[axis] + by).clamp(0, last) - self.first[axis]
+            }
+            _ => 0,
+        }
     }
 
     /// Rolls the interior of `field` on the box grid `boxed` by `by` cells along `axis`, as
@@ -507,6 +568,42 @@ mod tests {
     }
 
     #[test]
+    fn a_segment_box_stops_at_the_walls_and_reads_the_grid_beyond_its_sides() {
+        let g = walled();
+        let w = Window::new(&g, [-3, 9, 2], [8, 6, 5]).unwrap();
+        assert_eq!(w.segments(), [false, false, true]);
+        assert_eq!(w.movable(), [true, true, true]);
+        let bg = w.grid(&g);
+        // The box grid is periodic along z too, from the grid's cell 2.
+        assert!(bg.is_periodic(2));
+        assert!((bg.lower()[2] - 0.2).abs() < 1e-15 && (bg.upper()[2] - 0.7).abs() < 1e-15);
+        let f = field(&g);
+        let mut b = Field::zeros(&bg);
+        w.gather(&g, &f, &bg, &mut b).unwrap();
+        for (i, j, k) in bg.cells() {
+            let c = w.grid_cell([i, j, k].map(|x| x as isize));
+            assert_eq!(b.data[bg.idx_u(i, j, k)], f.at(&g, c[0], c[1], c[2]));
+        }
+        // Ghosts are the box's own periodic images, as on a ring.
+        assert_eq!(b.at(&bg, 0, 0, -1), f.at(&g, 13, 9, 6));
+        assert_eq!(b.at(&bg, 0, 0, 5), f.at(&g, 13, 9, 2));
+        let mut filled = b.clone();
+        filled.fill_ghosts(&bg);
+        assert_eq!(filled, b);
+        // Added back, the box lands on the grid's cells 2..7 along z only.
+        let mut sum = Field::zeros(&g);
+        w.add_to(&bg, &b, &g, &mut sum).unwrap();
+        for (i, j, k) in g.cells() {
+            let inside = (2..7).contains(&k) && !(5..13).contains(&i) && !(3..9).contains(&j);
+            assert_eq!(sum.data[g.idx_u(i, j, k)], if inside { f.data[g.idx_u(i, j, k)] } else { 0.0 });
+        }
+        // A segment moves between the walls only.
+        let near = Window::new(&g, [0, 0, 0], [8, 8, 6]).unwrap();
+        assert_eq!(near.clamp_shift(2, -3), 0);
+        assert_eq!(near.clamp_shift(2, 7), 4);
+    }
+
+    #[test]
     fn adding_a_box_back_conserves_its_sum_and_touches_nothing_else() {
         let g = walled();
         let w = Window::new(&g, [12, -2, 0], [7, 5, 10]).unwrap();
@@ -564,8 +661,13 @@ mod tests {
     #[test]
     fn errors_name_the_parameter() {
         let g = walled();
-        let e = Window::new(&g, [0; 3], [8, 8, 6]).unwrap_err().to_string();
+        let e = Window::new(&g, [0, 0, 5], [8, 8, 6]).unwrap_err().to_string();
+        assert!(e.contains("first[2]") && e.contains("at most 4"), "{e}");
+        let e = Window::new(&g, [0, 0, 0], [8, 8, 3]).unwrap_err().to_string();
         assert!(e.contains("size[2]"), "{e}");
+        let mut s = Window::new(&g, [0, 0, 3], [8, 8, 6]).unwrap();
+        assert_eq!(s.clamp_shift(2, 5), 1);
+        assert!(s.shift(2, 2).unwrap_err().to_string().contains("by"));
         let e = Window::new(&g, [0; 3], [3, 8, 10]).unwrap_err().to_string();
         assert!(e.contains("size[0]"), "{e}");
         let mut w = Window::new(&g, [0; 3], [8, 12, 10]).unwrap();
@@ -583,7 +685,10 @@ mod tests {
         // Cells are 0.1 wide: centres at 0.05 + 0.1 i.
         let w = Window::around(&g, [-0.12, 0.31, 0.2], [0.14, 0.52, 0.3], 2).unwrap();
         assert_eq!(w.first()[0], -2 - 2);
-        assert_eq!(w.size()[2], 10);
+        // Along the wall axis z: cells 1..=3 and 2 each side would reach past the lower wall.
+        assert_eq!((w.first()[2], w.size()[2]), (0, 10));
+        let inner = Window::around(&g, [0.0, 0.0, 0.4], [0.1, 0.1, 0.5], 2).unwrap();
+        assert_eq!((inner.first()[2], inner.size()[2], inner.segments()[2]), (1, 7, true));
         let bg = w.grid(&g);
         let (lo, hi) = (bg.lower(), bg.upper());
         assert!(lo[0] <= -0.12 - 2.0 * 0.1 + 1e-12 && hi[0] >= 0.14 + 2.0 * 0.1 - 1e-12);

@@ -80,6 +80,10 @@ impl<T: Real> Boxed<T> {
     }
 }
 
+/// The largest `phi` a move of a box along a wall axis may carry round to its other side (on a
+/// periodic axis the profile's tail moves with the fluid, and the margin keeps it within `1e-10`).
+const FAR_FIELD: f64 = 1e-8;
+
 /// The two staggered fields of a box's `scratch` on its grid `grid`, made on first use.
 fn box_fields<'a, T: Real>(
     grid: &Grid<T>,
@@ -297,8 +301,8 @@ impl<T: Real> Capsule<T> {
         std::mem::swap(&mut self.cur, &mut self.next);
     }
 
-    /// The cells between the band of `level` and the two sides of the box along each ring axis
-    /// (`None` on whole axes and for an empty band).
+    /// The cells between the band of `level` and the two sides of the box along each axis the
+    /// box can move along, a ring or a segment (`None` on whole axes and for an empty band).
     pub(crate) fn room(&self, level: LevelChoice) -> [Option<(usize, usize)>; 3] {
         let band = match level {
             LevelChoice::Current => &self.cur.band,
@@ -307,12 +311,37 @@ impl<T: Real> Capsule<T> {
         let w = &self.boxed.window;
         let (size, bounds) = (w.size(), band.bounds(0));
         std::array::from_fn(|d| {
-            let (lo, hi) = bounds.filter(|_| w.rings()[d])?;
+            let (lo, hi) = bounds.filter(|_| w.movable()[d])?;
             Some((lo[d], size[d] - 1 - hi[d]))
         })
     }
 
-    /// Moves the box by `by` cells along ring axis `axis` of the whole grid `whole`, rolling the
+    /// The part of a move of the box by `by` cells along segment axis `axis` (a wall axis) that
+    /// carries only the far field round the box: the layers that leave one side come round to
+    /// the other (as on a ring; nothing is lost), and the move stops before a layer with `phi`
+    /// above [`FAR_FIELD`] in some cell. The profile's tail stays behind where the fluid is
+    /// slow, next to a wall (a capsule whose surface was 5 cells from a wall leaves `phi` ~ 1e-5
+    /// there): the box then waits (`by` itself on a periodic axis).
+    pub(crate) fn far_field_move(&self, axis: usize, by: isize) -> isize {
+        if by == 0 || !self.boxed.window.segments()[axis] {
+            return by;
+        }
+        let (g, phi) = (&self.boxed.grid, &self.cur.phi);
+        let n = g.n()[axis];
+        // The largest phi per layer across the axis, in the order the move carries them round.
+        let mut layer = vec![0.0f64; n];
+        for (i, j, k) in g.cells() {
+            let l = &mut layer[[i, j, k][axis]];
+            *l = l.max(phi.data[g.idx_u(i, j, k)].f64());
+        }
+        if by < 0 {
+            layer.reverse();
+        }
+        let allowed = layer.iter().take(by.unsigned_abs()).take_while(|&&p| p <= FAR_FIELD).count();
+        by.signum() * allowed as isize
+    }
+
+    /// Moves the box by `by` cells along ring or segment axis `axis` of the whole grid `whole`, rolling the
     /// state with it (the transport's history first: a transport that refuses leaves
     /// everything as it was), and derives the geometry and the membrane map anew there.
     pub(crate) fn shift(

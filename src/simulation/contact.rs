@@ -335,10 +335,11 @@ struct PairCell {
 fn box_coord<T: Real>(grid: &Grid<T>, m: &MembraneView<'_, T>, d: usize, x: isize) -> Option<isize> {
     let n = grid.n()[d] as isize;
     let w = m.window;
-    let l = match (w.rings()[d], grid.is_periodic(d)) {
-        (true, _) => (x - w.first()[d]).rem_euclid(n),
-        (false, true) => x.rem_euclid(n),
-        (false, false) => x,
+    let l = match (w.rings()[d], w.segments()[d], grid.is_periodic(d)) {
+        (true, _, _) => (x - w.first()[d]).rem_euclid(n),
+        (false, true, _) => x - w.first()[d],
+        (false, false, true) => x.rem_euclid(n),
+        (false, false, false) => x,
     };
     (0..w.size()[d] as isize).contains(&l).then_some(l)
 }
@@ -348,7 +349,7 @@ fn band_region<T: Real>(m: &MembraneView<'_, T>) -> Option<[(isize, isize); 3]> 
     let b = CellBox::of_band(m.band)?;
     let w = m.window;
     Some(std::array::from_fn(|d| {
-        let off = if w.rings()[d] { w.first()[d] } else { 0 };
+        let off = if w.movable()[d] { w.first()[d] } else { 0 };
         (b.lo[d] as isize + off, b.hi[d] as isize + off)
     }))
 }

@@ -432,12 +432,14 @@ impl<T: Real> Simulation<T> {
             cap.restore_reference_area();
         }
         self.prepared_capsules = 0;
-        // Each box follows its capsule: the membrane band centred (a transport that cannot
-        // move leaves its box where it is and reports it).
+        // Each box follows its capsule: the membrane band centred, a segment of a wall axis
+        // as far as the walls let it, where it leaves only the far field behind (a transport
+        // that cannot move leaves its box where it is and reports it).
         for (cap, boxed_grid) in self.capsules.iter_mut().zip(&mut self.capsule_grids) {
             for (d, room) in cap.room(LevelChoice::Current).into_iter().enumerate() {
                 let Some((lo, hi)) = room else { continue };
-                let off = (lo as isize - hi as isize) / 2;
+                let off =
+                    cap.far_field_move(d, cap.boxed.window.clamp_shift(d, (lo as isize - hi as isize) / 2));
                 if off != 0 {
                     cap.shift(&self.grid, d, off, self.normals.as_mut())?;
                     *boxed_grid = cap.boxed.grid.clone();

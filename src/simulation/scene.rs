@@ -108,19 +108,23 @@ pub enum CapsuleStorage {
     /// Every capsule on the whole grid.
     #[default]
     Whole,
-    /// Each capsule on a box of whole cells around it: along each periodic axis `room` times
-    /// its [bounding radius](crate::interface::shapes::Shape::bounding_radius) and
-    /// [`box_margin`] cells on each side of its centre (the whole axis where that is as long as
-    /// the grid, and along wall axes). The box moves with the capsule by whole cells after
-    /// each step, so that its membrane stays centred; a capsule that grows out of it (its band
-    /// within [`BOX_MIN_ROOM`] cells of a side) fails the step with an error naming `room`. A
-    /// shape without a bounding radius keeps the whole grid.
+    /// Each capsule on a box of whole cells around it: along each axis `room` times its
+    /// [bounding radius](crate::interface::shapes::Shape::bounding_radius) and [`box_margin`]
+    /// cells on each side of its centre (the whole axis where that is as long as the grid, and
+    /// along a wall axis where it would reach past a wall). The box moves with the capsule by
+    /// whole cells after each step, so that its membrane stays centred (along a wall axis
+    /// between the walls); a capsule that grows out of it (its band within [`BOX_MIN_ROOM`]
+    /// cells of a side, a wall's included) fails the step with an error naming `room`. A shape
+    /// without a bounding radius keeps the whole grid.
     Boxed {
         /// The box's half-width in bounding radii, beyond the margin (`>= 1`: room for the
         /// capsule to deform, e.g. 1.2 for red cells, 1.6 for a capsule at `D` = 0.3).
         room: f64,
     },
 }
+
+/// The far field of the profile: the `phi` whose reach sets [`box_margin`].
+const FAR_FIELD: f64 = 1e-10;
 
 /// Cells between a capsule's bounding ball (times its room) and its box's sides at profile
 /// sharpness `beta`: the reach `atanh(1 - 2e-10) / beta` (11.5 cells at `beta = 1`) of the
@@ -129,7 +133,7 @@ pub enum CapsuleStorage {
 /// capsule then follows the whole-grid one to `2e-8` of its elastic energy (at 8 cells less it
 /// differs by `1e-6`; `tests/capsule_boxes.rs`).
 pub fn box_margin(beta: f64) -> usize {
-    ((1.0 - 2e-10f64).atanh() / beta).ceil() as usize
+    ((1.0 - 2.0 * FAR_FIELD).atanh() / beta).ceil() as usize
 }
 
 /// The fewest cells between a membrane band and its box's side (the reach of the stencils).
