@@ -88,11 +88,17 @@ impl fmt::Display for Error {
                 write!(f, "non-finite value in field `{field}` at cell {cell:?}")
             }
             // The advice belongs to the context: only a time step can be retried with a smaller dt.
-            Error::Step { step, time, dt, source } => write!(
-                f,
-                "step {step} (from t = {time:e} with dt = {dt:e}) failed: {source}; the state is as before \
-                 the step: retry with a smaller dt (see simulation::stability for the limits)"
-            ),
+            Error::Step { step, time, dt, source } => {
+                write!(
+                    f,
+                    "step {step} (from t = {time:e} with dt = {dt:e}) failed: {source}; the state is as before the step"
+                )?;
+                match source.as_ref() {
+                    // A parameter that the step cannot meet: a smaller step does not help.
+                    Error::InvalidParameter { .. } => write!(f, ": change that parameter"),
+                    _ => write!(f, ": retry with a smaller dt (see simulation::stability for the limits)"),
+                }
+            }
             Error::Io { path, message } => write!(f, "I/O error on `{path}`: {message}"),
         }
     }

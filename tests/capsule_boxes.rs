@@ -7,7 +7,8 @@ use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::NeoHookean;
 use eulermembrane::simulation::{
-    CapsuleStorage, Contact, Phase, Scene, Settings, Simulation, SurfaceLoad, Traction, min_gap_cells,
+    AdaptiveDt, CapsuleStorage, Contact, Phase, Scene, Settings, Simulation, SurfaceLoad, Traction,
+    min_gap_cells,
 };
 
 /// A neo-Hookean sphere of radius 0.25 (4 cells) carried along x across the periodic seam by a
@@ -182,8 +183,14 @@ fn a_capsule_that_outgrows_its_box_fails_the_step_by_name() {
     let before = sim.steps();
     let err = (0..300).find_map(|_| sim.step(0.01).err()).expect("the capsule outgrows its box");
     let text = format!("{err} {err:?}");
-    assert!(text.contains("CapsuleStorage::Boxed room"), "{text}");
+    assert!(text.contains("CapsuleStorage::Boxed room") && text.contains("change that parameter"), "{text}");
     assert!(sim.steps() > before + 10, "failed at once: {text}");
+    // Adaptive steps do not retry it smaller: no step size meets it.
+    let mut control = AdaptiveDt::new(0.01).unwrap();
+    let (t, steps) = (sim.time(), sim.steps());
+    let err = sim.run_with(3.0, &mut control, &mut []).unwrap_err();
+    assert!(format!("{err}").contains("CapsuleStorage::Boxed room"), "{err}");
+    assert_eq!((sim.time(), sim.steps()), (t, steps), "the failed step left the state as it was");
 }
 
 /// Two capsules of radius 5 cells pushed together across the periodic seam (x = 0) by opposite

@@ -24,7 +24,7 @@
 //! `RESULT phi=... phi_target=... ca=... n=... cells_per_radius=... capsules=... mu_eff_wall=...
 //! mu_eff_wall_std=... mu_eff_stresslet=... n1=... n2=... d_mean=... incl_deg=... mu_dilute_rigid=...
 //! min_gap_cells=... vol_drift_max=... steps=... wall_s=... t_end=... average_from=... failed_at=...
-//! coupling=... contact=... seed=... box=...`: the viscosities, `n1`, `n2`, `d_mean` and
+//! coupling=... contact=... seed=... box=... storage=...`: the viscosities, `n1`, `n2`, `d_mean` and
 //! `incl_deg` averaged over the samples with `t >= --average-from`; `mu_eff_wall_std` the standard
 //! deviation of the wall estimate over them; `min_gap_cells` the smallest gap over every step;
 //! `failed_at` the time of a step that failed (`none`: the run reached `--t-end`).
@@ -41,7 +41,9 @@
 //! in cells), `--wall-distance` (5: the smallest distance from a surface to a wall at the start,
 //! in cells; at least 4.5, since a membrane band within two cells of a wall stops the run),
 //! `--contact` (50; 0 for none), `--contact-range` (2 cells), `--cfl` (0.3), `--max-dt` (0.05),
-//! `--sample-every` (0.05), `--coupling sharp|smoothed` (`Settings::traction`, default `sharp`,
+//! `--sample-every` (0.05), `--room R` (each capsule on a box that follows it,
+//! `CapsuleStorage::Boxed { room: R }`; 0, the default, keeps every capsule on the whole grid),
+//! `--coupling sharp|smoothed` (`Settings::traction`, default `sharp`,
 //! as `shear_capsule`), `--vtk-every` (1, time units; 0 for none), `--out DIR`
 //! (`out/suspension`).
 //!
@@ -61,12 +63,13 @@ use common::{Args, BoxResult, num, result};
 use eulermembrane::diagnostics::suspension::{
     ShearFrame, capsule_shapes, couette_shear_rate, particle_stress, wall_shear_stress,
 };
-use eulermembrane::grid::{Boundary, Grid, VectorField};
+use eulermembrane::grid::{Boundary, Field, Grid, VectorField};
 use eulermembrane::interface::placement::{Domain, Placed, Placement, Prototype, Target};
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::NeoHookean;
 use eulermembrane::simulation::{
-    AdaptiveDt, Contact, Phase, Scene, Settings, Simulation, TimeStepping, Traction, min_gap_cells,
+    AdaptiveDt, CapsuleStorage, Contact, Phase, Scene, Settings, Simulation, TimeStepping, Traction,
+    min_gap_cells,
 };
 use std::path::Path;
 use std::time::Instant;
@@ -103,6 +106,7 @@ struct Config {
     sample_every: f64,
     vtk_every: f64,
     traction: Traction,
+    storage: CapsuleStorage,
 }
 
 /// `Err` with `msg` unless `ok`.
@@ -143,6 +147,10 @@ impl Config {
             // closer to the Stokes mobility at few cells per radius (surface_mobility.md): what a
             // suspension at 4-5 cells per radius needs most.
             traction: args.traction("sharp")?,
+            storage: match args.get("room", 0.0) {
+                r if r > 0.0 => CapsuleStorage::Boxed { room: r },
+                _ => CapsuleStorage::Whole,
+            },
         };
         check(n >= 16 && n.is_multiple_of(2), || format!("--n {n}: an even number of cells >= 16"))?;
         check(box_radii.iter().all(|l| l.is_finite() && *l > 0.0), || {
@@ -252,7 +260,7 @@ fn place(cfg: &Config, grid: &Grid<f64>) -> BoxResult<Placed> {
 /// The scene: the placed capsules, the neo-Hookean membrane, the contact; at the undisturbed
 /// shear.
 fn build(cfg: &Config, grid: Grid<f64>, placed: &Placed) -> BoxResult<Simulation<f64>> {
-    let settings = Settings { traction: cfg.traction, ..Settings::default() };
+    let settings = Settings { traction: cfg.traction, storage: cfg.storage, ..Settings::default() };
     let mut scene = Scene::new(grid, Phase::new(1.0, MU)?).settings(settings);
     for shape in placed.shapes()? {
         scene = scene.capsule(shape);
@@ -264,6 +272,19 @@ fn build(cfg: &Config, grid: Grid<f64>, placed: &Placed) -> BoxResult<Simulation
     let mut sim = scene.build()?;
     sim.set_velocity(|x| [x[GRADIENT], 0.0, 0.0])?;
     Ok(sim)
+}
+
+/// Every capsule's `phi` on the whole grid (a capsule on a box holds it on its box only).
+fn phis_on_grid(sim: &Simulation<f64>) -> BoxResult<Vec<Field<f64>>> {
+    let g = sim.grid();
+    (0..sim.capsule_count())
+        .map(|c| {
+            let mut f = Field::zeros(g);
+            sim.window(c)?.add_to(sim.capsule_grid(c)?, sim.phi(c)?, g, &mut f)?;
+            f.fill_ghosts(g);
+            Ok(f)
+        })
+        .collect()
 }
 
 /// One sample of the history.
@@ -371,7 +392,8 @@ impl Probe {
             c.fill(0.0);
         }
         sim.membrane_force(dt, &mut self.force)?;
-        let phis = (0..k).map(|c| sim.phi(c)).collect::<Result<Vec<_>, _>>()?;
+        let phis = phis_on_grid(sim)?;
+        let phis: Vec<&Field<f64>> = phis.iter().collect();
         let stress = particle_stress(sim.grid(), &self.force, &phis, None)?;
         let rheology = stress.shear_rheology(self.frame, MU, self.rate)?;
         let net_force = stress
@@ -465,7 +487,8 @@ fn run() -> BoxResult<()> {
         &["capsule", "x0", "y0", "z0", "x", "y", "z", "d", "incl_deg", "volume_drift"],
     )?;
     let frame = ShearFrame::new(FLOW, GRADIENT)?;
-    let phis = (0..k).map(|c| sim.phi(c)).collect::<Result<Vec<_>, _>>()?;
+    let phis = phis_on_grid(&sim)?;
+    let phis: Vec<&Field<f64>> = phis.iter().collect();
     let shapes = capsule_shapes(sim.grid(), &phis, frame)?;
     for (c, (s, x0)) in shapes.iter().zip(&starts).enumerate() {
         let v0 = outcome.v0[c];
@@ -515,6 +538,13 @@ fn run() -> BoxResult<()> {
         ("contact", cfg.contact.to_string()),
         ("seed", cfg.seed.to_string()),
         ("box", cfg.box_radii.map(|l| l.to_string()).join(",")),
+        (
+            "storage",
+            match cfg.storage {
+                CapsuleStorage::Boxed { room } => format!("boxed_room_{room}"),
+                CapsuleStorage::Whole => "whole".into(),
+            },
+        ),
     ]);
     Ok(())
 }

@@ -16,7 +16,8 @@
 //! A step is then prepared, and rejected (discarded and tried again smaller, up to `retries`
 //! times) when
 //! - it fails ([`Error::Step`]: a solver that does not converge, a non-finite value, a band at a
-//!   wall): `dt` is halved;
+//!   wall): `dt` is halved (but for an [`Error::InvalidParameter`], e.g. a capsule that outgrew
+//!   its box, which no step size meets: that error is returned at once);
 //! - its Courant number exceeds twice the target: `dt` is scaled to the target;
 //! - its predictor needed more than [`AdaptiveDt::ITERATION_SURGE`] times the median
 //!   iterations of the recent steps (the first sign of a growing instability in the membrane
@@ -276,7 +277,11 @@ impl<T: Real> TimeStepping<T> for AdaptiveDt {
             let outcome = sim.prepare(T::lit(dt));
             let factor = match &outcome {
                 Ok(report) => self.rejection(report),
-                Err(Error::Step { .. }) => Some(0.5),
+                // A parameter the step cannot meet (e.g. a capsule that outgrew its box) fails
+                // at any step size.
+                Err(Error::Step { source, .. }) if !matches!(**source, Error::InvalidParameter { .. }) => {
+                    Some(0.5)
+                }
                 Err(_) => None,
             };
             match (outcome, factor) {
