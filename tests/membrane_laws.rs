@@ -14,7 +14,7 @@ use eulermembrane::membrane::{
     tension_invariants, uniaxial_tension,
 };
 use eulermembrane::testing::{
-    MembraneState, Property, arb_probe, arb_rotation, arb_unit, check_at, check_law, config,
+    MembraneState, Probe, Property, arb_probe, arb_rotation, arb_unit, check_at, check_law, config,
 };
 use proptest::prelude::*;
 use std::path::PathBuf;
@@ -52,6 +52,33 @@ prop_compose! {
     }
 }
 
+/// Whether the relaxed energy of `law` changes regime (taut, wrinkled, slack) within a relative
+/// `1e-2` of the probe's `(c1, c2)`: taut where it equals the law's energy, slack where it is
+/// zero. Near that boundary the energy is only once differentiable and the harness's
+/// fourth-order differences miss its Hessian tolerance (with `1e-3`, 20 000 random probes still
+/// found one off by 3.4e-9 against 2e-9, at `(0.9856, 0.9842)`; with `1e-2`, none).
+fn near_a_regime_boundary(law: &Law, probe: &Probe) -> bool {
+    let k = eulermembrane::membrane::stress::surface_kinematics(&probe.state.g(), &probe.state.n());
+    let regime = |c1: f64, c2: f64| {
+        let (w, relaxed) = match law {
+            Law::Neo(l) => (l.energy(c1, c2), TensionField::new(*l).energy(c1, c2)),
+            Law::Sk(l) => (l.energy(c1, c2), TensionField::new(*l).energy(c1, c2)),
+        };
+        if (relaxed - w).abs() <= 1e-12 * w.abs().max(1e-300) {
+            0
+        } else if relaxed.abs() <= 1e-300 {
+            2
+        } else {
+            1
+        }
+    };
+    let here = regime(k.c1, k.c2);
+    let d = 1e-2;
+    [(d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)]
+        .iter()
+        .any(|&(a, b)| regime(k.c1 + a * k.c1.abs().max(1.0), k.c2 + b * k.c2.abs().max(1.0)) != here)
+}
+
 /// Both laws pass the harness at its 50 fixed probes, at the ends of the parameter ranges.
 #[test]
 fn paper_laws_pass_the_law_check() {
@@ -72,6 +99,8 @@ proptest! {
     /// the harness's finite differences of the Hessian do not apply).
     #[test]
     fn tension_field_laws_pass_at_random_probes(law in arb_law(), probe in arb_probe()) {
+        // Probes whose finite differences in (c1, c2) straddle that boundary are left out.
+        prop_assume!(!near_a_regime_boundary(&law, &probe));
         match law {
             Law::Neo(l) => { check_at(&TensionField::new(l), &probe)?; }
             Law::Sk(l) => { check_at(&TensionField::new(l), &probe)?; }
