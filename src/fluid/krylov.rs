@@ -87,7 +87,6 @@ pub struct KrylovWorkspace<V> {
     rhat: V,
     p: V,
     v: V,
-    s: V,
     t: V,
     phat: V,
     shat: V,
@@ -104,7 +103,6 @@ impl<V> KrylovWorkspace<V> {
             rhat: V::zeros_like(grid),
             p: V::zeros_like(grid),
             v: V::zeros_like(grid),
-            s: V::zeros_like(grid),
             t: V::zeros_like(grid),
             phat: V::zeros_like(grid),
             shat: V::zeros_like(grid),
@@ -139,7 +137,7 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
 ) -> Result<KrylovInfo> {
     let tol = T::lit(params.tolerance);
     let Some(bnorm) = nonzero_rhs_norm(grid, b, x) else { return Ok(KrylovInfo::default()) };
-    let KrylovWorkspace { r, rhat, p, v, s, t, phat, shat } = ws;
+    let KrylovWorkspace { r, rhat, p, v, t, phat, shat } = ws;
     // r = b - A x
     op.apply(x, r)?;
     r.axpby(grid, T::one(), b, -T::one());
@@ -162,8 +160,9 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
             return Err(no_convergence("BiCGStab (breakdown)", it, res.f64(), params.tolerance));
         }
         let alpha = rho / rv;
-        // s = r - alpha v, and |s|^2
-        let [ss, _] = s.update_reduce(grid, [r, v], |_, [r, v]| {
+        // s = r - alpha v, and |s|^2: `s` takes `r`'s storage (`r` is not read again before it
+        // is rebuilt from `s`), so that `r` below holds `s` until the update of `r`.
+        let [ss, _] = r.update_reduce(grid, [v], |r, [v]| {
             let s = -alpha * v + r;
             (s, [s * s, T::zero()])
         });
@@ -172,14 +171,14 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
             x.axpby(grid, alpha, phat, T::one());
             return Ok(KrylovInfo { iterations: it, residual: snorm.f64() });
         }
-        pc.apply(s, shat);
+        pc.apply(r, shat);
         op.apply(shat, t)?;
-        let [tt, ts] = t.reduce(grid, [s], |t, [s]| [t * t, t * s]);
+        let [tt, ts] = t.reduce(grid, [r], |t, [s]| [t * t, t * s]);
         let omega = if tt > T::zero() { ts / tt } else { T::zero() };
         // x += alpha phat + omega shat
         x.update(grid, [phat, shat], |x, [ph, sh]| omega * sh + (alpha * ph + x));
         // r = s - omega t, |r|^2 and rhat . r
-        let [rr, rho_new] = r.update_reduce(grid, [s, t, rhat], |_, [s, t, rh]| {
+        let [rr, rho_new] = r.update_reduce(grid, [t, rhat], |s, [t, rh]| {
             let r = -omega * t + s;
             (r, [r * r, rh * r])
         });
