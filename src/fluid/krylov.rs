@@ -88,8 +88,8 @@ pub struct KrylovWorkspace<V> {
     p: V,
     v: V,
     t: V,
-    phat: V,
-    shat: V,
+    /// A preconditioned vector: BiCGStab's `p hat`, then its `s hat`; PCG's `z`.
+    z: V,
 }
 
 impl<V> KrylovWorkspace<V> {
@@ -104,8 +104,7 @@ impl<V> KrylovWorkspace<V> {
             p: V::zeros_like(grid),
             v: V::zeros_like(grid),
             t: V::zeros_like(grid),
-            phat: V::zeros_like(grid),
-            shat: V::zeros_like(grid),
+            z: V::zeros_like(grid),
         }
     }
 }
@@ -137,7 +136,7 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
 ) -> Result<KrylovInfo> {
     let tol = T::lit(params.tolerance);
     let Some(bnorm) = nonzero_rhs_norm(grid, b, x) else { return Ok(KrylovInfo::default()) };
-    let KrylovWorkspace { r, rhat, p, v, t, phat, shat } = ws;
+    let KrylovWorkspace { r, rhat, p, v, t, z } = ws;
     // r = b - A x
     op.apply(x, r)?;
     r.axpby(grid, T::one(), b, -T::one());
@@ -153,8 +152,9 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
     let mut rho = rhat.dot(grid, r);
     // Each vector update below is one fused pass that also takes the sums needed next.
     for it in 1..=params.max_iterations {
-        pc.apply(p, phat);
-        op.apply(phat, v)?;
+        // `z` holds `p hat` until `x` has taken its part, then `s hat`.
+        pc.apply(p, z);
+        op.apply(z, v)?;
         let rv = rhat.dot(grid, v);
         if rv == T::zero() || !rv.is_finite() {
             return Err(no_convergence("BiCGStab (breakdown)", it, res.f64(), params.tolerance));
@@ -166,17 +166,18 @@ pub fn bicgstab<T: Real, V: InteriorVector<T>>(
             let s = -alpha * v + r;
             (s, [s * s, T::zero()])
         });
+        // x += alpha p hat (the first half of x += alpha p hat + omega s hat).
+        x.axpby(grid, alpha, z, T::one());
         let snorm = ss.sqrt() / bnorm;
         if snorm <= tol {
-            x.axpby(grid, alpha, phat, T::one());
             return Ok(KrylovInfo { iterations: it, residual: snorm.f64() });
         }
-        pc.apply(r, shat);
-        op.apply(shat, t)?;
+        pc.apply(r, z);
+        op.apply(z, t)?;
         let [tt, ts] = t.reduce(grid, [r], |t, [s]| [t * t, t * s]);
         let omega = if tt > T::zero() { ts / tt } else { T::zero() };
-        // x += alpha phat + omega shat
-        x.update(grid, [phat, shat], |x, [ph, sh]| omega * sh + (alpha * ph + x));
+        // x += omega s hat
+        x.axpby(grid, omega, z, T::one());
         // r = s - omega t, |r|^2 and rhat . r
         let [rr, rho_new] = r.update_reduce(grid, [t, rhat], |s, [t, rh]| {
             let r = -omega * t + s;
@@ -213,7 +214,7 @@ pub fn pcg<T: Real, V: InteriorVector<T>>(
 ) -> Result<KrylovInfo> {
     let tol = T::lit(params.tolerance);
     let Some(bnorm) = nonzero_rhs_norm(grid, b, x) else { return Ok(KrylovInfo::default()) };
-    let KrylovWorkspace { r, p, v: ap, shat: z, .. } = ws;
+    let KrylovWorkspace { r, p, v: ap, z, .. } = ws;
     op.apply(x, r)?;
     r.axpby(grid, T::one(), b, -T::one());
     let mut res = r.norm(grid) / bnorm;

@@ -191,8 +191,9 @@ struct Workspace<T: Real> {
     adv: VectorField<T>,
     rhs: VectorField<T>,
     vstar: VectorField<T>,
+    /// `v^{n+1}`; before the projection writes it, the explicit force of the step, then the
+    /// moving walls' lift.
     v_new: VectorField<T>,
-    force: VectorField<T>,
     psi: Field<T>,
     edge_mu: Option<[Field<T>; 3]>,
     momentum: Box<dyn MomentumSolver<T>>,
@@ -236,7 +237,6 @@ impl<T: Real> FlowStepper<T> {
                 rhs: z(),
                 vstar: z(),
                 v_new: z(),
-                force: z(),
                 psi: Field::zeros(grid),
                 edge_mu: None,
                 momentum,
@@ -488,11 +488,12 @@ impl<T: Real> FlowStepper<T> {
         // 2. Explicit forces.
         let forced = forcing.is_active();
         if forced {
+            // The force takes `v_new`'s storage: free until the lift below.
             for c in 0..3 {
-                ws.force.c[c].fill(T::zero());
+                ws.v_new.c[c].fill(T::zero());
             }
-            forcing.add(g, self.time, &self.v, &mut ws.force)?;
-            if let Some((c, cell)) = ws.force.first_non_finite(g) {
+            forcing.add(g, self.time, &self.v, &mut ws.v_new)?;
+            if let Some((c, cell)) = ws.v_new.first_non_finite(g) {
                 return Err(Error::NonFinite { field: ["force.u", "force.v", "force.w"][c], cell });
             }
         }
@@ -509,7 +510,7 @@ impl<T: Real> FlowStepper<T> {
             uniform_helmholtz(g, &self.vstar_prev, T::zero(), half * m, &mut ws.rhs);
         }
         for c in 0..3 {
-            let (adv, advp, force) = (&ws.adv.c[c].data, &self.adv_prev.c[c].data, &ws.force.c[c].data);
+            let (adv, advp, force) = (&ws.adv.c[c].data, &self.adv_prev.c[c].data, &ws.v_new.c[c].data);
             let (v, p, vsp) = (&self.v, &self.p, &self.vstar_prev);
             par_interior_update(g, &mut ws.rhs.c[c].data, |idx, i, j, k, visc| {
                 if is_wall_face(g, c, [i, j, k]) {
