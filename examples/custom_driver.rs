@@ -114,10 +114,10 @@ fn run_custom(sim: &mut Simulation<f64>) -> eulermembrane::Result<DriverSummary>
         // Land on T_END exactly.
         let step = dt.min(T_END - sim.time());
         if step < 1e-6 {
-            return Err(Error::Unsupported {
-                component: "custom driver",
-                detail: format!("no acceptable step down to dt = {step:.2e} at t = {:.4}", sim.time()),
-            });
+            return Err(Error::user(format!(
+                "custom driver: no acceptable step down to dt = {step:.2e} at t = {:.4}",
+                sim.time()
+            )));
         }
         let volume_now = volume(sim.grid(), sim.phi(0)?)?;
         // Phase 1: compute the step beside the state. A step that fails (a solver that does

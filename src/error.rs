@@ -58,17 +58,42 @@ pub enum Error {
     },
     /// Reading or writing a file failed.
     Io {
-        /// The path involved.
+        /// The path involved (empty where the error came without one, e.g. through `?` on a
+        /// [`std::io::Error`]).
         path: String,
         /// The operating-system message.
+        message: String,
+    },
+    /// A user's own code failed (an observer, an effect, a law, a law check): its message.
+    User {
+        /// What failed and why, as the user's code said it.
         message: String,
     },
 }
 
 impl Error {
+    /// An [`Error::User`] with `message`: how a user's observer, effect or law reports a
+    /// failure of its own.
+    ///
+    /// ```
+    /// let e = eulermembrane::Error::user("the probe left the box");
+    /// assert_eq!(e.to_string(), "the probe left the box");
+    /// ```
+    pub fn user(message: impl Into<String>) -> Self {
+        Error::User { message: message.into() }
+    }
+
     /// Shorthand for [`Error::InvalidParameter`].
     pub fn invalid(name: &'static str, value: impl fmt::Display, allowed: &'static str) -> Self {
         Error::InvalidParameter { name, value: value.to_string(), allowed }
+    }
+}
+
+/// An I/O error without a path (`?` in an observer that writes a file): [`Error::Io`] with an
+/// empty `path`.
+impl From<std::io::Error> for Error {
+    fn from(e: std::io::Error) -> Self {
+        Error::Io { path: String::new(), message: e.to_string() }
     }
 }
 
@@ -99,7 +124,9 @@ impl fmt::Display for Error {
                     _ => write!(f, ": retry with a smaller dt (see simulation::stability for the limits)"),
                 }
             }
+            Error::Io { path, message } if path.is_empty() => write!(f, "I/O error: {message}"),
             Error::Io { path, message } => write!(f, "I/O error on `{path}`: {message}"),
+            Error::User { message } => f.write_str(message),
         }
     }
 }

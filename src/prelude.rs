@@ -20,9 +20,9 @@ pub use crate::grid::{Boundary, Field, Grid, SymField, VectorField};
 pub use crate::interface::shapes::{Biconcave, Circle, Ellipse, Ellipsoid, Shape, Sphere};
 pub use crate::interface::{InterfaceTransport, NormalEstimator};
 pub use crate::membrane::{NeoHookean, Skalak, SurfaceLaw};
-pub use crate::simulation::observer::{Checkpoints, Observer, Progress, VtkSeries};
+pub use crate::simulation::observer::{Checkpoints, Every, Observer, Progress, VtkSeries};
 pub use crate::simulation::{
-    Bending, BendingCoupling, Effect, Elasticity, GsTransport, MembraneCoupling, Phase, Scene, Settings,
-    Simulation, StepReport, StepState, StepWarning, SurfaceLoad, Traction,
+    AdaptiveDt, Bending, BendingCoupling, Effect, Elasticity, FixedDt, GsTransport, MembraneCoupling, Phase,
+    Scene, Settings, Simulation, StepReport, StepState, StepWarning, SurfaceLoad, TimeStepping, Traction,
 };
 pub use crate::{Error, Real, Result};

@@ -332,6 +332,18 @@ impl From<Error> for LawCheckError {
     }
 }
 
+/// So that `check_law(&law)?` works in a function returning the crate's [`Result`](crate::Result):
+/// a refused argument stays the [`Error`] it was, a failed property becomes [`Error::User`]
+/// with this error's message.
+impl From<LawCheckError> for Error {
+    fn from(e: LawCheckError) -> Self {
+        match e {
+            LawCheckError::Invalid(e) => e,
+            failed @ LawCheckError::Failed { .. } => Error::user(failed.to_string()),
+        }
+    }
+}
+
 impl fmt::Display for LawCheckError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -717,6 +729,26 @@ mod tests {
         }
         let (mu, k) = check_law(&NeoHookean::new(3.0).unwrap()).unwrap().moduli;
         assert!((mu - 1.0).abs() < 1e-15 && (k - 3.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_failed_check_converts_into_the_crate_error() {
+        fn checked(law: &dyn SurfaceLaw<f64>) -> crate::Result<(f64, f64)> {
+            Ok(check_law(law)?.moduli)
+        }
+        let mut law = Broken::new();
+        law.gradient_factor = 1.01;
+        let e = checked(&law).unwrap_err();
+        assert!(matches!(e, Error::User { .. }), "{e:?}");
+        assert!(e.to_string().starts_with("law `broken` fails gradient: error"), "{e}");
+        let (mu, k) = checked(&NeoHookean::new(3.0).unwrap()).unwrap();
+        assert!((mu - 1.0).abs() < 1e-15 && (k - 3.0).abs() < 1e-15);
+        // A refused argument stays the error it was.
+        let bad = Error::invalid("E_s", "-1", "a finite number > 0");
+        assert_eq!(Error::from(LawCheckError::Invalid(bad.clone())), bad);
+        // And an I/O error through `?` keeps its message.
+        let io: Error = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file").into();
+        assert_eq!(io.to_string(), "I/O error: no such file");
     }
 
     #[test]
