@@ -41,8 +41,8 @@ fn bench(c: &mut Criterion) {
             group.bench_function(&name, |b| {
                 b.iter(|| {
                     // Restart from the initial fields so the band does not drift.
-                    phi.data.copy_from_slice(&phi0.data);
-                    kt.data.copy_from_slice(&kt0.data);
+                    phi.copy_from(&phi0);
+                    kt.copy_from(&kt0);
                     if curvature {
                         adv.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap()
                     } else {

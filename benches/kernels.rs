@@ -102,7 +102,7 @@ fn setup<T: Real>(n: usize) -> Setup<T> {
     derive(&mut s);
     // A strained membrane: G_s = 1.1 P.
     fill_projector(&s.grid, &s.normal, &mut s.gs);
-    s.gs.c.iter_mut().for_each(|c| c.data.iter_mut().for_each(|x| *x *= T::lit(1.1)));
+    s.gs.c.iter_mut().for_each(|c| c.values_mut().iter_mut().for_each(|x| *x *= T::lit(1.1)));
     s.gs.fill_ghosts(&s.grid);
     s
 }
@@ -135,8 +135,8 @@ fn kernels_of<T: Real>(c: &mut Criterion<CpuTime>, ty: &str, n: usize) {
         group.bench_function(name, |b| {
             b.iter(|| {
                 // Restart from the same fields so the band does not drift.
-                phi.data.copy_from_slice(&s.phi.data);
-                kt.data.copy_from_slice(&s.kt.data);
+                phi.copy_from(&s.phi);
+                kt.copy_from(&s.kt);
                 adv.step(&g, &s.v, s.dt, &mut phi, curvature.then_some(&mut kt)).unwrap()
             })
         });
@@ -165,9 +165,7 @@ fn kernels_of<T: Real>(c: &mut Criterion<CpuTime>, ty: &str, n: usize) {
     let mut gs = s.gs.clone();
     group.bench_function("gs_transport", |b| {
         b.iter(|| {
-            for (a, b) in gs.c.iter_mut().zip(&s.gs.c) {
-                a.data.copy_from_slice(&b.data);
-            }
+            gs.copy_from(&s.gs);
             transport.step(&g, &s.band, s.dt, black_box(&s.v), &s.v, &s.normal, &mut gs).unwrap()
         })
     });
@@ -193,7 +191,7 @@ fn kernels_of<T: Real>(c: &mut Criterion<CpuTime>, ty: &str, n: usize) {
         [w, -w, w]
     });
     for (t, v) in target.c.iter_mut().zip(&s.v.c) {
-        t.data.iter_mut().zip(&v.data).for_each(|(a, b)| *a += *b);
+        t.values_mut().iter_mut().zip(v.values()).for_each(|(a, b)| *a += *b);
     }
     let mut rhs = VectorField::zeros(&g);
     coupled.apply(&mut target, &mut rhs).unwrap();
@@ -232,7 +230,7 @@ fn kernels_of<T: Real>(c: &mut Criterion<CpuTime>, ty: &str, n: usize) {
     });
     let mut vstar = s.v.clone();
     for c in vstar.c.iter_mut() {
-        c.data.iter_mut().zip(&s.phi.data).for_each(|(a, p)| *a += lit(0.01) * *p);
+        c.values_mut().iter_mut().zip(s.phi.values()).for_each(|(a, p)| *a += lit(0.01) * *p);
     }
     vstar.fill_ghosts(&g);
     let its = projection.project(&g, &heavy.rho, s.dt, &vstar, &mut psi, &mut v_new).unwrap().iterations;
@@ -266,8 +264,8 @@ fn band_cost(c: &mut Criterion<CpuTime>) {
         let mut out = VectorField::zeros(&g);
         group.bench_function(BenchmarkId::new("mthinc_convolved_step", n), |b| {
             b.iter(|| {
-                phi.data.copy_from_slice(&s.phi.data);
-                kt.data.copy_from_slice(&s.kt.data);
+                phi.copy_from(&s.phi);
+                kt.copy_from(&s.kt);
                 adv.step(&g, &s.v, s.dt, &mut phi, Some(&mut kt)).unwrap()
             })
         });
@@ -286,9 +284,7 @@ fn band_cost(c: &mut Criterion<CpuTime>) {
         });
         group.bench_function(BenchmarkId::new("gs_transport", n), |b| {
             b.iter(|| {
-                for (a, b) in gs.c.iter_mut().zip(&s.gs.c) {
-                    a.data.copy_from_slice(&b.data);
-                }
+                gs.copy_from(&s.gs);
                 transport.step(&g, &s.band, s.dt, black_box(&s.v), &s.v, &s.normal, &mut gs).unwrap()
             })
         });
@@ -318,16 +314,22 @@ fn helmholtz_channel_of<T: Real>(c: &mut Criterion<CpuTime>, ty: &str, n: usize)
     let (sigma, c_visc) = (T::lit(1000.0), T::lit(0.025));
     let mut vel = SpectralSolver::new(&g, Location::Velocity(0)).unwrap();
     group.bench_function("velocity_solve", |b| {
-        b.iter(|| vel.solve(&g, sigma, c_visc, black_box(&b1.data), &mut x1.data))
+        b.iter(|| vel.solve(&g, sigma, c_visc, black_box(b1.values()), x1.values_mut()))
     });
     group.bench_function("velocity_solve_pair", |b| {
         b.iter(|| {
-            vel.solve_pair(&g, sigma, c_visc, [black_box(&b1.data), &b2.data], [&mut x1.data, &mut x2.data])
+            vel.solve_pair(
+                &g,
+                sigma,
+                c_visc,
+                [black_box(b1.values()), b2.values()],
+                [x1.values_mut(), x2.values_mut()],
+            )
         })
     });
     let mut pressure = SpectralSolver::new(&g, Location::CellNeumann).unwrap();
     group.bench_function("pressure_solve", |b| {
-        b.iter(|| pressure.solve(&g, T::zero(), T::one(), black_box(&b1.data), &mut x1.data))
+        b.iter(|| pressure.solve(&g, T::zero(), T::one(), black_box(b1.values()), x1.values_mut()))
     });
     group.finish();
 }

@@ -31,28 +31,29 @@ fn scene() -> Scene {
     let mut phi = Field::from_cell_fn(&grid, |x| 0.5 * (1.0 + (radius - dist(x)).tanh()));
     phi.fill_ghosts(&grid);
     let lim = 1.0 - 1e-12;
-    let psi: Vec<f64> = phi.data.iter().map(|&p| (2.0 * p - 1.0).clamp(-lim, lim).atanh()).collect();
+    let psi: Vec<f64> = phi.values().iter().map(|&p| (2.0 * p - 1.0).clamp(-lim, lim).atanh()).collect();
     let st = grid.strides();
     let mut delta = Field::zeros(&grid);
     let mut normal = [Field::zeros(&grid), Field::zeros(&grid), Field::zeros(&grid)];
     for (i, j, k) in grid.cells() {
         let idx = grid.idx_u(i, j, k);
-        let gp: [f64; 3] = std::array::from_fn(|d| 0.5 * (phi.data[idx + st[d]] - phi.data[idx - st[d]]));
+        let gp: [f64; 3] =
+            std::array::from_fn(|d| 0.5 * (phi.values()[idx + st[d]] - phi.values()[idx - st[d]]));
         let gq: [f64; 3] = std::array::from_fn(|d| 0.5 * (psi[idx + st[d]] - psi[idx - st[d]]));
-        delta.data[idx] = (gp[0] * gp[0] + gp[1] * gp[1] + gp[2] * gp[2]).sqrt();
+        delta.values_mut()[idx] = (gp[0] * gp[0] + gp[1] * gp[1] + gp[2] * gp[2]).sqrt();
         let m = (gq[0] * gq[0] + gq[1] * gq[1] + gq[2] * gq[2]).sqrt();
         for d in 0..3 {
-            normal[d].data[idx] = if m > 0.0 { gq[d] / m } else { 0.0 };
+            normal[d].values_mut()[idx] = if m > 0.0 { gq[d] / m } else { 0.0 };
         }
     }
     delta.fill_ghosts(&grid);
     normal.iter_mut().for_each(|f| f.fill_ghosts(&grid));
-    let kr = Field::from_cell_fn(&grid, |x| 1.0 / dist(x).max(1.0));
-    let kr = Field { data: kr.data.iter().zip(&delta.data).map(|(k, d)| k * d).collect() };
+    let mut kr = Field::from_cell_fn(&grid, |x| 1.0 / dist(x).max(1.0));
+    kr.values_mut().iter_mut().zip(delta.values()).for_each(|(k, d)| *k *= d);
     let mut gs = SymField::zeros(&grid);
     fill_projector(&grid, &normal, &mut gs);
     for comp in gs.c.iter_mut() {
-        comp.data.iter_mut().for_each(|x| *x *= 1.1);
+        comp.values_mut().iter_mut().for_each(|x| *x *= 1.1);
     }
     let mut v = VectorField::from_fn(&grid, |x| {
         let w = std::f64::consts::TAU / 64.0;

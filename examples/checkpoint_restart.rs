@@ -76,13 +76,13 @@ fn deformation(sim: &Simulation<f64>) -> Result<f64, Box<dyn std::error::Error>>
 fn state_arrays(sim: &Simulation<f64>) -> eulermembrane::Result<Vec<(String, &[f64])>> {
     let mut arrays: Vec<(String, &[f64])> = Vec::new();
     for (d, f) in sim.velocity().c.iter().enumerate() {
-        arrays.push((format!("velocity[{d}]"), &f.data));
+        arrays.push((format!("velocity[{d}]"), f.values()));
     }
-    arrays.push(("pressure".into(), &sim.pressure().data));
-    arrays.push(("phi".into(), &sim.phi(0)?.data));
+    arrays.push(("pressure".into(), sim.pressure().values()));
+    arrays.push(("phi".into(), sim.phi(0)?.values()));
     if let Some(gs) = sim.gs(0)? {
         for (k, f) in gs.c.iter().enumerate() {
-            arrays.push((format!("G_s[{k}]"), &f.data));
+            arrays.push((format!("G_s[{k}]"), f.values()));
         }
     }
     Ok(arrays)

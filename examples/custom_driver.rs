@@ -92,7 +92,7 @@ fn max_velocity_change(sim: &Simulation<f64>) -> Option<f64> {
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
         for d in 0..3 {
-            largest = largest.max((next.c[d].data[idx] - now.c[d].data[idx]).abs());
+            largest = largest.max((next.c[d].values()[idx] - now.c[d].values()[idx]).abs());
         }
     }
     Some(largest)

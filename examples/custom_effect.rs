@@ -101,8 +101,8 @@ impl Effect<f64> for MembraneWeight {
                 for d in 0..3 {
                     // `delta` on the lower face normal to `d`: the mean of the two cells it
                     // separates (the cell below along `d` is at `idx - stride[d]`).
-                    let f = 0.5 * (delta.data[idx] + delta.data[idx - stride[d]]) * self.f[d];
-                    out.c[d].data[idx] += f;
+                    let f = 0.5 * (delta.values()[idx] + delta.values()[idx - stride[d]]) * self.f[d];
+                    out.c[d].values_mut()[idx] += f;
                     total[d] += f;
                 }
             }
@@ -113,7 +113,7 @@ impl Effect<f64> for MembraneWeight {
         for (i, j, k) in g.cells() {
             let idx = g.idx_u(i, j, k);
             for (component, m) in out.c.iter_mut().zip(mean) {
-                component.data[idx] -= m;
+                component.values_mut()[idx] -= m;
             }
         }
         Ok(())

@@ -206,10 +206,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut inside, mut outside) = ((0.0, 0.0), (0.0, 0.0));
     for (i, j, kk) in g.cells() {
         let idx = g.idx_u(i, j, kk);
-        if phi.data[idx] > 0.999 {
-            inside = (inside.0 + p.data[idx], inside.1 + 1.0);
-        } else if phi.data[idx] < 0.001 {
-            outside = (outside.0 + p.data[idx], outside.1 + 1.0);
+        if phi.values()[idx] > 0.999 {
+            inside = (inside.0 + p.values()[idx], inside.1 + 1.0);
+        } else if phi.values()[idx] < 0.001 {
+            outside = (outside.0 + p.values()[idx], outside.1 + 1.0);
         }
     }
     let jump = inside.0 / inside.1 - outside.0 / outside.1;
@@ -217,7 +217,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let rel_err = jump / laplace - 1.0;
     // Spurious currents: the largest velocity over the velocity scale T / mu (zero in the
     // continuum: the capsule is at rest).
-    let vmax = sim.velocity().c.iter().flat_map(|c| c.data.iter()).fold(0.0f64, |m, v| m.max(v.abs()));
+    let vmax = sim.velocity().c.iter().flat_map(|c| c.values().iter()).fold(0.0f64, |m, v| m.max(v.abs()));
     let spurious = vmax / (tension / mu_fluid);
 
     println!(

@@ -139,7 +139,7 @@ impl Effect<f64> for Pump {
         out: &mut VectorField<f64>,
     ) -> Result<()> {
         for d in 0..3 {
-            for (o, &x) in out.c[d].data.iter_mut().zip(&v.c[d].data) {
+            for (o, &x) in out.c[d].values_mut().iter_mut().zip(v.c[d].values()) {
                 *o += self.k * x;
             }
         }

@@ -170,8 +170,8 @@ proptest! {
         prop_assert!(AreaTracker::new(good).is_ok());
         // Material fields: a non-positive value, or a field of another grid.
         let mut f = Field::zeros(&g);
-        f.data.iter_mut().for_each(|x| *x = good);
-        f.data[g.idx_u(3, 4, 5)] = bad;
+        f.fill(good);
+        f.values_mut()[g.idx_u(3, 4, 5)] = bad;
         let m = Materials { rho: Coefficient::Field(f), mu: Coefficient::Uniform(1.0) };
         refused("FlowStepper::new", || FlowStepper::new(&g, m, FlowConfig::default()));
         let other = Field::zeros(&box16());
@@ -328,7 +328,7 @@ proptest! {
         prop_assert_eq!(s.velocity(), &before);
         let e = refused("FlowStepper::set_pressure", || s.set_pressure(|_| nf));
         prop_assert!(matches!(e, Error::NonFinite { field: "pressure", cell: [0, 0, 0] }), "{}", e);
-        prop_assert!(s.pressure().data.iter().all(|&p| p == 0.0));
+        prop_assert!(s.pressure().values().iter().all(|&p| p == 0.0));
     }
 
     #[test]
@@ -395,7 +395,7 @@ proptest! {
         refused("Simulation::set_velocity", || sim.set_velocity(|_| [nf, 0.0, 0.0]));
         prop_assert_eq!(sim.time(), time);
         prop_assert_eq!(sim.steps(), 0);
-        prop_assert!(sim.velocity().c.iter().all(|f| f.data.iter().all(|&x| x == 0.0)));
+        prop_assert!(sim.velocity().c.iter().all(|f| f.values().iter().all(|&x| x == 0.0)));
         prop_assert!(sim.prestretch(0, 1.05).is_ok());
     }
 }
@@ -531,7 +531,7 @@ fn poisoned_scene(t_bad: f64) -> Simulation<f64> {
 /// Bit patterns of everything a step changes.
 fn snapshot(sim: &Simulation<f64>) -> Vec<u64> {
     let mut s = vec![sim.time().to_bits(), sim.steps() as u64];
-    let mut add = |f: &Field<f64>| s.extend(f.data.iter().map(|x| x.to_bits()));
+    let mut add = |f: &Field<f64>| s.extend(f.values().iter().map(|x| x.to_bits()));
     for d in 0..3 {
         add(&sim.velocity().c[d]);
     }

@@ -37,7 +37,9 @@ fn phi_on_grid(sim: &Simulation<f64>) -> Field<f64> {
 }
 
 fn max_difference(a: &Field<f64>, b: &Field<f64>, g: &Grid<f64>) -> f64 {
-    g.cells().map(|(i, j, k)| (a.data[g.idx_u(i, j, k)] - b.data[g.idx_u(i, j, k)]).abs()).fold(0.0, f64::max)
+    g.cells()
+        .map(|(i, j, k)| (a.values()[g.idx_u(i, j, k)] - b.values()[g.idx_u(i, j, k)]).abs())
+        .fold(0.0, f64::max)
 }
 
 #[test]

@@ -37,7 +37,7 @@ impl Effect<f64> for Push {
         let sx = grid.strides()[0];
         for (i, j, k) in grid.cells() {
             let idx = grid.idx_u(i, j, k);
-            out.c[0].data[idx] += 0.5 * (phi.data[idx] + phi.data[idx - sx]) * self.g;
+            out.c[0].values_mut()[idx] += 0.5 * (phi.values()[idx] + phi.values()[idx - sx]) * self.g;
         }
         Ok(())
     }

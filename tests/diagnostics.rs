@@ -60,11 +60,11 @@ fn delta_and_normals(grid: &Grid<f64>, phi: &Field<f64>) -> (Field<f64>, [Field<
     for (i, j, k) in grid.cells() {
         let id = grid.idx_u(i, j, k);
         let g: [f64; 3] =
-            std::array::from_fn(|d| (phi.data[id + st[d]] - phi.data[id - st[d]]) / (2.0 * h[d]));
+            std::array::from_fn(|d| (phi.values()[id + st[d]] - phi.values()[id - st[d]]) / (2.0 * h[d]));
         let m = norm(g);
-        delta.data[id] = m;
+        delta.values_mut()[id] = m;
         for d in 0..3 {
-            n[d].data[id] = if m > 0.0 { g[d] / m } else { 0.0 };
+            n[d].values_mut()[id] = if m > 0.0 { g[d] / m } else { 0.0 };
         }
     }
     (delta, n)
@@ -346,14 +346,14 @@ fn taylor_deformation_refuses_what_is_not_an_ellipse() {
     let g = cube(16, 0.0, 1.0);
     let mut phi = Field::zeros(&g);
     let id = g.idx_u(8, 8, 8);
-    phi.data[id] = 1.0;
+    phi.values_mut()[id] = 1.0;
     let pts = section_contour(&g, &phi, [0.5 + 1.0 / 32.0; 3], 1, 0.5).unwrap();
     assert_eq!(pts.len(), 4);
     assert!(taylor_deformation(&g, &phi, [0.5 + 1.0 / 32.0; 3], 1).is_err());
     assert!(taylor_deformation(&g, &Field::zeros(&g), [0.5; 3], 1).is_err());
     assert!(taylor_deformation(&g, &phi, [0.5; 3], 3).is_err());
     let mut bad = phi.clone();
-    bad.data[id] = f64::NAN;
+    bad.values_mut()[id] = f64::NAN;
     assert!(matches!(taylor_deformation(&g, &bad, [0.5 + 1.0 / 32.0; 3], 1), Err(Error::NonFinite { .. })));
 }
 
@@ -585,7 +585,7 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(surface_modes(&g, &phi, [0.5; 3], 65, ModeWeight::<f64>::Area).is_err());
     assert!(surface_modes(&g, &phi, [f64::NAN; 3], 2, ModeWeight::<f64>::Area).is_err());
     let mut nan = phi.clone();
-    nan.data[g.idx_u(1, 2, 3)] = f64::NAN;
+    nan.values_mut()[g.idx_u(1, 2, 3)] = f64::NAN;
     assert_eq!(volume(&g, &nan), Err(Error::NonFinite { field: "phi", cell: [1, 2, 3] }));
     assert!(matches!(centroid(&g, &nan), Err(Error::NonFinite { .. })));
     let v = VectorField::zeros(&other);

@@ -41,7 +41,7 @@ impl Effect<f64> for Tether {
             let [i, j, k] = ijk.map(|x| x as isize);
             for d in 0..3 {
                 let x = g.face_center(d, i, j, k);
-                out.c[d].data[idx] += m.delta.data[idx] * self.k * (self.anchor[d] - x[d]);
+                out.c[d].values_mut()[idx] += m.delta.values()[idx] * self.k * (self.anchor[d] - x[d]);
             }
         }
         Ok(())
@@ -135,7 +135,8 @@ fn a_custom_driver_uses_the_two_phase_step() {
     };
     let (mut driven, mut plain) = (scene(), scene());
     assert!(driven.commit().is_err(), "nothing prepared yet");
-    let snapshot = |s: &Simulation<f64>| (s.velocity().c[0].data.clone(), s.phi(0).unwrap().data.clone());
+    let snapshot =
+        |s: &Simulation<f64>| (s.velocity().c[0].values().to_vec(), s.phi(0).unwrap().values().to_vec());
     let before = snapshot(&driven);
     // A step too large for the driver's Courant limit is discarded and halved.
     let mut dt = 0.4;
@@ -182,7 +183,7 @@ fn each_capsule_has_its_own_membrane() {
         let x0 = sim.centroid(c).unwrap()[0];
         let (mut m, mut v) = (0.0, 0.0);
         for (i, j, k) in g.cells() {
-            let p = phi.data[g.idx_u(i, j, k)];
+            let p = phi.values()[g.idx_u(i, j, k)];
             let x = g.cell_center(i as isize, j as isize, k as isize)[0] - x0;
             m += p * x * x;
             v += p;
@@ -246,7 +247,7 @@ fn observers_watch_a_run_and_checkpoints_record_the_physics() {
     // The final checkpoint restores into the same physics, bit for bit...
     let mut same = scene(1.0);
     same.restore(dir.join("state.ckpt")).unwrap();
-    assert_eq!(same.velocity().c[0].data, sim.velocity().c[0].data);
+    assert_eq!(same.velocity().c[0].values(), sim.velocity().c[0].values());
     // ...and is refused by another capillary number, naming the mismatch.
     let e = scene(2.0).restore(dir.join("state.ckpt"));
     assert!(matches!(e, Err(Error::InvalidParameter { name: "checkpoint physics", .. })), "{e:?}");

@@ -25,8 +25,8 @@ fn swirl<T: Real>(g: &Grid<T>, amp: f64) -> VectorField<T> {
     for (i, j, k) in g.cells() {
         let (i, j, k) = (i as isize, j as isize, k as isize);
         let id = g.idx(i, j, k);
-        v.c[0].data[id] = T::lit((psi(i, j + 1, k) - psi(i, j, k)) / h[1]);
-        v.c[1].data[id] = T::lit(-(psi(i + 1, j, k) - psi(i, j, k)) / h[0]);
+        v.c[0].values_mut()[id] = T::lit((psi(i, j + 1, k) - psi(i, j, k)) / h[1]);
+        v.c[1].values_mut()[id] = T::lit(-(psi(i + 1, j, k) - psi(i, j, k)) / h[0]);
     }
     v.fill_ghosts(g);
     v
@@ -34,7 +34,7 @@ fn swirl<T: Real>(g: &Grid<T>, amp: f64) -> VectorField<T> {
 
 fn interior_min_max(g: &Grid<f64>, f: &Field<f64>) -> (f64, f64) {
     g.cells()
-        .map(|(i, j, k)| f.data[g.idx_u(i, j, k)])
+        .map(|(i, j, k)| f.values()[g.idx_u(i, j, k)])
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)))
 }
 
@@ -89,14 +89,14 @@ fn walls_and_curvature_tensors() {
     geo.curvature_tensors(&g, &phi, PhiRange::new(0.2, 0.8).unwrap(), &mut kap);
     for (i, j, k) in g.cells() {
         let id = g.idx_u(i, j, k);
-        if phi.data[id] > 0.2 && phi.data[id] < 0.8 {
+        if phi.values()[id] > 0.2 && phi.values()[id] < 0.8 {
             let x = g.cell_center(i as isize, j as isize, k as isize);
             let d: Vec<f64> = (0..3).map(|q| x[q] - c[q]).collect();
             let r = d.iter().map(|v| v * v).sum::<f64>().sqrt();
             let n = [d[0] / r, d[1] / r, d[2] / r];
             let p = eulermembrane::tensor::projector(&n);
             for (comp, pq) in kap.c.iter().zip(p) {
-                assert!((comp.data[id] - pq / r).abs() < 0.02 / r);
+                assert!((comp.values()[id] - pq / r).abs() < 0.02 / r);
             }
         }
     }
@@ -187,7 +187,7 @@ fn single_vortex_n32_meets_table_1() {
     for s in 0..steps {
         let c = (PI * s as f64 * dt).cos();
         for d in 0..2 {
-            for (x, y) in v.c[d].data.iter_mut().zip(&v0.c[d].data) {
+            for (x, y) in v.c[d].values_mut().iter_mut().zip(v0.c[d].values()) {
                 *x = c * y;
             }
         }
@@ -195,7 +195,7 @@ fn single_vortex_n32_meets_table_1() {
     }
     let l1 = |a: &Field<f64>, b: &Field<f64>, sc: f64| {
         g.cells()
-            .map(|(i, j, k)| ((a.data[g.idx_u(i, j, k)] - b.data[g.idx_u(i, j, k)]) * sc).abs())
+            .map(|(i, j, k)| ((a.values()[g.idx_u(i, j, k)] - b.values()[g.idx_u(i, j, k)]) * sc).abs())
             .sum::<f64>()
             / g.cell_count() as f64
     };
@@ -212,7 +212,7 @@ fn cfl_umax(g: &Grid<f64>, v: &VectorField<f64>) -> f64 {
     g.cells()
         .flat_map(|(i, j, k)| {
             let id = g.idx_u(i, j, k);
-            [v.c[0].data[id].abs(), v.c[1].data[id].abs()]
+            [v.c[0].values()[id].abs(), v.c[1].values()[id].abs()]
         })
         .fold(0.0, f64::max)
 }
@@ -239,7 +239,7 @@ fn sphere_translated_through_periodic_box() {
     assert!(((phi.interior_sum(&g) - m0) / m0).abs() < 1e-12);
     let l1 = g
         .cells()
-        .map(|(i, j, k)| (phi.data[g.idx_u(i, j, k)] - phi0.data[g.idx_u(i, j, k)]).abs())
+        .map(|(i, j, k)| (phi.values()[g.idx_u(i, j, k)] - phi0.values()[g.idx_u(i, j, k)]).abs())
         .sum::<f64>()
         / g.cell_count() as f64;
     eprintln!("translated sphere N=16: L1 phi {l1:.3e}");
@@ -277,9 +277,9 @@ fn history_restore_reproduces_the_next_step() {
     a.step(&g, &v, dt, &mut phi, Some(&mut kt)).unwrap();
     b.step(&g, &v, dt, &mut p2, Some(&mut k2)).unwrap();
     assert!(
-        phi.data.iter().zip(&p2.data).all(|(x, y)| x == y) || {
+        phi.values().iter().zip(p2.values()).all(|(x, y)| x == y) || {
             // ghosts may differ (stale); compare the interiors
-            g.cells().all(|(i, j, k)| phi.data[g.idx_u(i, j, k)] == p2.data[g.idx_u(i, j, k)])
+            g.cells().all(|(i, j, k)| phi.values()[g.idx_u(i, j, k)] == p2.values()[g.idx_u(i, j, k)])
         }
     );
 }
@@ -303,7 +303,7 @@ fn bad_input_gives_errors_not_panics() {
     assert!(adv.step(&g2, &VectorField::zeros(&g2), 0.1, &mut phi2, None).is_err());
     // NaN in the field: reported, not a panic.
     let mut phin = Field::zeros(&g);
-    phin.data[g.idx(3, 3, 3)] = f64::NAN;
+    phin.values_mut()[g.idx(3, 3, 3)] = f64::NAN;
     assert!(matches!(adv.step(&g, &v, 0.1, &mut phin, None), Err(Error::NonFinite { .. })));
     assert!(Sphere::new([0.5; 3], 0.0).is_err());
     assert!(Sphere::new([f64::NAN, 0.5, 0.5], 0.1).is_err());
@@ -374,7 +374,7 @@ fn geometry_integrals_on_a_sphere() {
     let sk = kt.interior_sum(&g) * g.cell_volume();
     assert!((sk / (area / r) - 1.0).abs() < 0.02, "{sk}");
     let k2 = convolved_curvature(&g, &s, &Smoothing::default()).unwrap();
-    assert!(k2.data.iter().zip(&kt.data).all(|(a, b)| (a - b).abs() < 1e-12));
+    assert!(k2.values().iter().zip(kt.values()).all(|(a, b)| (a - b).abs() < 1e-12));
     for scheme in NormalScheme::ALL {
         let mut geo = Geometry::new(&g, scheme);
         geo.update(&g, &phi);
@@ -384,12 +384,12 @@ fn geometry_integrals_on_a_sphere() {
         geo.normals(&g, &phi, PhiRange::new(0.3, 0.7).unwrap(), &mut normals);
         for (i, j, k) in g.cells() {
             let id = g.idx_u(i, j, k);
-            if phi.data[id] > 0.3 && phi.data[id] < 0.7 {
-                let m = mean.data[id] * r;
+            if phi.values()[id] > 0.3 && phi.values()[id] < 0.7 {
+                let m = mean.values()[id] * r;
                 assert!(m > 0.7 && m < 1.3, "{scheme:?} {m}");
                 let x = g.cell_center(i as isize, j as isize, k as isize);
                 // Inward: n . (x - c) < 0.
-                let dot: f64 = (0..3).map(|d| normals[d].data[id] * (x[d] - [0.5, 0.49, 0.52][d])).sum();
+                let dot: f64 = (0..3).map(|d| normals[d].values()[id] * (x[d] - [0.5, 0.49, 0.52][d])).sum();
                 assert!(dot < 0.0);
             }
         }

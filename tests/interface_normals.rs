@@ -18,7 +18,7 @@ fn errors(g: &Grid<f64>, phi: &Field<f64>, shape: &dyn Shape, scheme: NormalSche
     let (mut ang, mut curv) = (0.0f64, 0.0f64);
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
-        let p = phi.data[idx];
+        let p = phi.values()[idx];
         if !(p > 0.01 && p < 0.99) {
             continue;
         }

@@ -61,7 +61,8 @@ fn sphere(radius: f64, normals: Normals) -> Sphere {
     let mut phi = Field::from_cell_fn(&grid, |x| 0.5 * (1.0 + (radius - dist(x)).tanh()));
     phi.fill_ghosts(&grid);
     let lim = 1.0 - 1e-12;
-    let psi = Field { data: phi.data.iter().map(|&p| (2.0 * p - 1.0).clamp(-lim, lim).atanh()).collect() };
+    let mut psi = phi.clone();
+    psi.values_mut().iter_mut().for_each(|p| *p = (2.0 * *p - 1.0).clamp(-lim, lim).atanh());
     let (delta, normal) = geometry(&grid, &phi, if normals == Normals::Psi { &psi } else { &phi });
     Sphere { grid, center, radius, normal, delta, phi }
 }
@@ -71,18 +72,18 @@ fn sphere(radius: f64, normals: Normals) -> Sphere {
 fn geometry(grid: &Grid<f64>, phi: &Field<f64>, s: &Field<f64>) -> (Field<f64>, [Field<f64>; 3]) {
     let st = grid.strides();
     let grad = |f: &Field<f64>, idx: usize| -> [f64; 3] {
-        std::array::from_fn(|d| (f.data[idx + st[d]] - f.data[idx - st[d]]) / (2.0 * grid.h()[d]))
+        std::array::from_fn(|d| (f.values()[idx + st[d]] - f.values()[idx - st[d]]) / (2.0 * grid.h()[d]))
     };
     let mut delta = Field::zeros(grid);
     let mut normal = [Field::zeros(grid), Field::zeros(grid), Field::zeros(grid)];
     for (i, j, k) in grid.cells() {
         let idx = grid.idx_u(i, j, k);
         let gp = grad(phi, idx);
-        delta.data[idx] = (gp[0] * gp[0] + gp[1] * gp[1] + gp[2] * gp[2]).sqrt();
+        delta.values_mut()[idx] = (gp[0] * gp[0] + gp[1] * gp[1] + gp[2] * gp[2]).sqrt();
         let gs = grad(s, idx);
         let m = (gs[0] * gs[0] + gs[1] * gs[1] + gs[2] * gs[2]).sqrt();
         for d in 0..3 {
-            normal[d].data[idx] = if m > 0.0 { gs[d] / m } else { 0.0 };
+            normal[d].values_mut()[idx] = if m > 0.0 { gs[d] / m } else { 0.0 };
         }
     }
     delta.fill_ghosts(grid);
@@ -93,7 +94,7 @@ fn geometry(grid: &Grid<f64>, phi: &Field<f64>, s: &Field<f64>) -> (Field<f64>, 
 }
 
 fn normal_at(s: &Sphere, idx: usize) -> [f64; 3] {
-    [s.normal[0].data[idx], s.normal[1].data[idx], s.normal[2].data[idx]]
+    [s.normal[0].values()[idx], s.normal[1].values()[idx], s.normal[2].values()[idx]]
 }
 
 /// `G_s = λ² P` with the grid normals (the stress-free state for `λ = 1`), in every cell.
@@ -101,7 +102,7 @@ fn stretched(s: &Sphere, lambda: f64) -> SymField<f64> {
     let mut gs = SymField::zeros(&s.grid);
     fill_projector(&s.grid, &s.normal, &mut gs);
     for c in gs.c.iter_mut() {
-        c.data.iter_mut().for_each(|x| *x *= lambda * lambda);
+        c.values_mut().iter_mut().for_each(|x| *x *= lambda * lambda);
     }
     gs.fill_ghosts(&s.grid);
     gs
@@ -122,7 +123,7 @@ fn inward_force(s: &Sphere, f: &VectorField<f64>) -> f64 {
         let idx = g.idx_u(i, j, k);
         for c in 0..3 {
             let x = g.face_center(c, i as isize, j as isize, k as isize);
-            total -= f.c[c].data[idx] * radial(s, x)[c];
+            total -= f.c[c].values()[idx] * radial(s, x)[c];
         }
     }
     total * g.cell_volume()
@@ -132,7 +133,7 @@ fn max_abs(f: &VectorField<f64>, g: &Grid<f64>) -> f64 {
     let mut m: f64 = 0.0;
     for (i, j, k) in g.cells() {
         for c in 0..3 {
-            m = m.max(f.c[c].data[g.idx_u(i, j, k)].abs());
+            m = m.max(f.c[c].values()[g.idx_u(i, j, k)].abs());
         }
     }
     m
@@ -169,11 +170,11 @@ fn laplace<L: SurfaceLaw<f64>>(law: L, radius: f64, lambda: f64, eps: f64) -> (f
     e.forcing(&band).unwrap().add(g, 0.0, &v, &mut f).unwrap();
     let area = 4.0 * PI * s.radius * s.radius;
     let inward = inward_force(&s, &f);
-    let band_area: f64 = band.cells().iter().map(|&i| s.delta.data[i]).sum::<f64>() * g.cell_volume();
+    let band_area: f64 = band.cells().iter().map(|&i| s.delta.values()[i]).sum::<f64>() * g.cell_volume();
     let mut net = [0.0f64; 3];
     for (i, j, k) in g.cells() {
         for c in 0..3 {
-            net[c] += f.c[c].data[g.idx_u(i, j, k)];
+            net[c] += f.c[c].values()[g.idx_u(i, j, k)];
         }
     }
     let net = net.iter().fold(0.0f64, |m, x| m.max(x.abs()));
@@ -266,19 +267,19 @@ fn prestretched_circle_in_2d_gives_t_over_r() {
     let tension = equibiaxial_tension(&law, lambda).unwrap();
     let mut gs = SymField::zeros(g);
     fill_projector(g, &normal, &mut gs);
-    gs.c.iter_mut().for_each(|f| f.data.iter_mut().for_each(|x| *x *= lambda * lambda));
+    gs.c.iter_mut().for_each(|f| f.values_mut().iter_mut().for_each(|x| *x *= lambda * lambda));
     let mut e = InPlaneElasticity::new(g, law);
     e.evaluate(g, &band, &gs, &normal, &delta, 1e-3).unwrap();
     let mut f = VectorField::zeros(g);
     e.forcing(&band).unwrap().add(g, 0.0, &VectorField::zeros(g), &mut f).unwrap();
-    assert!(f.c[2].data.iter().all(|x| x.abs() < 1e-14), "no force along z");
+    assert!(f.c[2].values().iter().all(|x| x.abs() < 1e-14), "no force along z");
     let mut inward = 0.0;
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
         for d in 0..2 {
             let x = g.face_center(d, i as isize, j as isize, k as isize);
             let r = ((x[0] - c[0]).powi(2) + (x[1] - c[1]).powi(2)).sqrt();
-            inward -= f.c[d].data[idx] * (x[d] - c[d]) / r;
+            inward -= f.c[d].values()[idx] * (x[d] - c[d]) / r;
         }
     }
     // Per unit length along z (h_z = 1): divide by the circumference.
@@ -318,7 +319,7 @@ fn implicit_term_is_consistent() {
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
         for c in 0..3 {
-            worst = worst.max((imp.apply_at(g, &x, c, idx) - y.c[c].data[idx]).abs());
+            worst = worst.max((imp.apply_at(g, &x, c, idx) - y.c[c].values()[idx]).abs());
         }
     }
     assert!(worst < 1e-13 * scale, "apply_at vs add_apply: {worst:e} (scale {scale:e})");
@@ -328,7 +329,7 @@ fn implicit_term_is_consistent() {
     let eps = 1e-3;
     let mut vp = v.clone();
     for c in 0..3 {
-        for (a, b) in vp.c[c].data.iter_mut().zip(&x.c[c].data) {
+        for (a, b) in vp.c[c].values_mut().iter_mut().zip(x.c[c].values()) {
             *a += eps * b;
         }
     }
@@ -340,8 +341,8 @@ fn implicit_term_is_consistent() {
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
         for c in 0..3 {
-            let fd = (f1.c[c].data[idx] - f0.c[c].data[idx]) / eps;
-            worst = worst.max((fd + y.c[c].data[idx]).abs());
+            let fd = (f1.c[c].values()[idx] - f0.c[c].values()[idx]) / eps;
+            worst = worst.max((fd + y.c[c].values()[idx]).abs());
         }
     }
     assert!(worst < 1e-8 * scale, "FD derivative vs implicit term: {worst:e} (scale {scale:e})");
@@ -374,7 +375,7 @@ fn flow_step_with_membrane_terms() {
     let scale = max_abs(&results[0], g);
     let mut diff: f64 = 0.0;
     for c in 0..3 {
-        for (a, b) in results[0].c[c].data.iter().zip(&results[1].c[c].data) {
+        for (a, b) in results[0].c[c].values().iter().zip(results[1].c[c].values()) {
             diff = diff.max((a - b).abs());
         }
     }
@@ -415,7 +416,7 @@ fn bending_reference(radius: f64, normals: Normals, kref: RefCurvature) -> (f64,
             RefCurvature::Discrete => mean_curvature_at(g, &s.normal, idx),
             RefCurvature::Surface => 1.0 / s.radius,
         };
-        kr.data[idx] = s.delta.data[idx] * kappa;
+        kr.values_mut()[idx] = s.delta.values()[idx] * kappa;
     }
     kr.fill_ghosts(g);
     let mut b = BendingStress::new(g, eb).unwrap();
@@ -430,7 +431,7 @@ fn bending_reference(radius: f64, normals: Normals, kref: RefCurvature) -> (f64,
     let mut l1 = 0.0;
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
-        l1 += (0..3).map(|c| f.c[c].data[idx].powi(2)).sum::<f64>().sqrt();
+        l1 += (0..3).map(|c| f.c[c].values()[idx].powi(2)).sum::<f64>().sqrt();
     }
     let l1 = l1 * g.cell_volume() / area / (eb / r3);
     (linf, l1, radial)
@@ -462,7 +463,7 @@ fn bending_mode(radius: f64, form: BendingForm) -> (f64, f64) {
         let x = g.cell_center(i as isize, j as isize, k as isize);
         let d = [x[0] - s.center[0], x[1] - s.center[1], x[2] - s.center[2]];
         let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        kr.data[idx] = s.delta.data[idx] * (1.0 + a * d[2] / r) / r;
+        kr.values_mut()[idx] = s.delta.values()[idx] * (1.0 + a * d[2] / r) / r;
     }
     kr.fill_ghosts(g);
     let mut b = BendingStress::new(g, eb).unwrap();
@@ -481,8 +482,8 @@ fn bending_mode(radius: f64, form: BendingForm) -> (f64, f64) {
             let (cos, sin) = (er[2], (1.0 - er[2] * er[2]).sqrt());
             // e_θ = (cos θ cos φ, cos θ sin φ, −sin θ) = (cos θ e_r − e_z)/sin θ.
             let et_c = if sin > 1e-12 { (cos * er[c] - if c == 2 { 1.0 } else { 0.0 }) / sin } else { 0.0 };
-            mr += f.c[c].data[idx] * er[c] * cos;
-            mt += f.c[c].data[idx] * et_c * sin;
+            mr += f.c[c].values()[idx] * er[c] * cos;
+            mt += f.c[c].values()[idx] * et_c * sin;
         }
     }
     let v = g.cell_volume();
@@ -519,20 +520,21 @@ fn energy_gradient_bending_force_of_a_curvature_mode() {
 fn psi4_geometry(g: &Grid<f64>, phi: &Field<f64>) -> (Field<f64>, [Field<f64>; 3]) {
     let st = g.strides();
     let lim = 1.0 - 1e-12;
-    let psi = |i: usize| (2.0 * phi.data[i] - 1.0).clamp(-lim, lim).atanh();
+    let psi = |i: usize| (2.0 * phi.values()[i] - 1.0).clamp(-lim, lim).atanh();
     let mut delta = Field::zeros(g);
     let mut normal = [Field::zeros(g), Field::zeros(g), Field::zeros(g)];
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
-        let gp: [f64; 3] = std::array::from_fn(|d| (phi.data[idx + st[d]] - phi.data[idx - st[d]]) / 2.0);
+        let gp: [f64; 3] =
+            std::array::from_fn(|d| (phi.values()[idx + st[d]] - phi.values()[idx - st[d]]) / 2.0);
         let gs: [f64; 3] = std::array::from_fn(|d| {
             (8.0 * (psi(idx + st[d]) - psi(idx - st[d])) - (psi(idx + 2 * st[d]) - psi(idx - 2 * st[d])))
                 / 12.0
         });
-        delta.data[idx] = (gp[0] * gp[0] + gp[1] * gp[1] + gp[2] * gp[2]).sqrt();
+        delta.values_mut()[idx] = (gp[0] * gp[0] + gp[1] * gp[1] + gp[2] * gp[2]).sqrt();
         let m = (gs[0] * gs[0] + gs[1] * gs[1] + gs[2] * gs[2]).sqrt();
         for d in 0..3 {
-            normal[d].data[idx] = if m > 0.0 { gs[d] / m } else { 0.0 };
+            normal[d].values_mut()[idx] = if m > 0.0 { gs[d] / m } else { 0.0 };
         }
     }
     delta.fill_ghosts(g);
@@ -570,7 +572,7 @@ fn shape_mode_stiffness(radius: f64, eps: f64, form: BendingForm) -> f64 {
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
         let (r, ct, _) = geo(g.cell_center(i as isize, j as isize, k as isize));
-        kr.data[idx] = delta.data[idx] * (1.0 + eps * p2(ct)) / r;
+        kr.values_mut()[idx] = delta.values()[idx] * (1.0 + eps * p2(ct)) / r;
     }
     kr.fill_ghosts(&g);
     let mut band = Band::new(&g, 0.01).unwrap();
@@ -589,7 +591,7 @@ fn shape_mode_stiffness(radius: f64, eps: f64, form: BendingForm) -> f64 {
         for cc in 0..3 {
             let x = g.face_center(cc, i as isize, j as isize, k as isize);
             let (_, ct, er) = geo(x);
-            m2 += f.c[cc].data[idx] * er[cc] * p2(ct);
+            m2 += f.c[cc].values()[idx] * er[cc] * p2(ct);
         }
     }
     // f_out = -S eb/R^4 zeta, zeta = eps R P2: moment = -S eb eps / R^3 * 4 pi R^2 / 5.
@@ -864,7 +866,7 @@ fn tangent_frame_transport_keeps_a_rotating_sphere_steady() {
         let idx = g.idx_u(i, j, k);
         let n = radial(&s, g.cell_center(i as isize, j as isize, k as isize));
         for d in 0..3 {
-            s.normal[d].data[idx] = n[d];
+            s.normal[d].values_mut()[idx] = n[d];
         }
     }
     s.normal.iter_mut().for_each(|f| f.fill_ghosts(&g));
@@ -895,8 +897,8 @@ fn tangent_frame_transport_keeps_a_rotating_sphere_steady() {
         let (mut num, mut den) = (0.0, 0.0);
         for &idx in band.cells() {
             let (got, want) = (gs.get(idx), gs0.get(idx));
-            num += s.delta.data[idx] * (0..6).fold(0.0f64, |m, k| m.max((got[k] - want[k]).abs()));
-            den += s.delta.data[idx];
+            num += s.delta.values()[idx] * (0..6).fold(0.0f64, |m, k| m.max((got[k] - want[k]).abs()));
+            den += s.delta.values()[idx];
         }
         num / den
     };
@@ -946,8 +948,8 @@ fn translating_sphere(radius: f64, eps: f64, steps: usize) -> f64 {
         });
         phi.fill_ghosts(g);
         let lim = 1.0 - 1e-12;
-        let psi =
-            Field { data: phi.data.iter().map(|&p| (2.0 * p - 1.0).clamp(-lim, lim).atanh()).collect() };
+        let mut psi = phi.clone();
+        psi.values_mut().iter_mut().for_each(|p| *p = (2.0 * *p - 1.0).clamp(-lim, lim).atanh());
         geometry(g, &phi, &psi)
     };
     let lambda2 = 1.2;
@@ -973,11 +975,11 @@ fn translating_sphere(radius: f64, eps: f64, steps: usize) -> f64 {
     let (delta, normal) = geo(steps as f64 * dt);
     let (mut num, mut den) = (0.0, 0.0);
     for &idx in band.cells() {
-        let nn = [normal[0].data[idx], normal[1].data[idx], normal[2].data[idx]];
+        let nn = [normal[0].values()[idx], normal[1].values()[idx], normal[2].values()[idx]];
         let b = eulermembrane::tensor::project(&projector(&nn), &gs.get(idx));
         let dil = 0.5 * eulermembrane::tensor::trace(&b);
-        num += delta.data[idx] * (dil - lambda2).abs();
-        den += delta.data[idx] * lambda2;
+        num += delta.values()[idx] * (dil - lambda2).abs();
+        den += delta.values()[idx] * lambda2;
     }
     num / den
 }
@@ -1002,11 +1004,12 @@ fn whole_pipeline_runs_in_f32() {
     let mut normal = [Field::zeros(g), Field::zeros(g), Field::zeros(g)];
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
-        let gp: [f32; 3] = std::array::from_fn(|d| 0.5 * (phi.data[idx + st[d]] - phi.data[idx - st[d]]));
+        let gp: [f32; 3] =
+            std::array::from_fn(|d| 0.5 * (phi.values()[idx + st[d]] - phi.values()[idx - st[d]]));
         let m = (gp[0] * gp[0] + gp[1] * gp[1] + gp[2] * gp[2]).sqrt();
-        delta.data[idx] = m;
+        delta.values_mut()[idx] = m;
         for d in 0..3 {
-            normal[d].data[idx] = if m > 0.0 { gp[d] / m } else { 0.0 };
+            normal[d].values_mut()[idx] = if m > 0.0 { gp[d] / m } else { 0.0 };
         }
     }
     delta.fill_ghosts(g);
@@ -1022,7 +1025,8 @@ fn whole_pipeline_runs_in_f32() {
     let mut f = VectorField::zeros(g);
     e.forcing(&band).unwrap().add(g, 0.0, &v, &mut f).unwrap();
     e.implicit(&band).unwrap().add_apply(g, &v, &mut f).unwrap();
-    let kr = Field { data: delta.data.iter().map(|d| d / 5.0).collect() };
+    let mut kr = delta.clone();
+    kr.values_mut().iter_mut().for_each(|d| *d /= 5.0);
     let mut b = BendingStress::new(g, 0.1f32).unwrap();
     b.evaluate(g, &band, &normal, &delta, &kr).unwrap();
     b.forcing(&band).unwrap().add(g, 0.0, &v, &mut f).unwrap();
@@ -1056,7 +1060,7 @@ fn bad_input_is_an_error() {
     for c in 0..6 {
         for (i, j, k) in g.cells() {
             let id = g.idx_u(i, j, k);
-            let (a, b) = (gs.c[c].data[id], before.c[c].data[id]);
+            let (a, b) = (gs.c[c].values()[id], before.c[c].values()[id]);
             assert!(a == b || (a.is_nan() && b.is_nan()));
         }
     }
@@ -1089,7 +1093,7 @@ fn upper_moment(g: &Grid<f64>, f: &VectorField<f64>) -> f64 {
     for (i, j, kk) in g.cells() {
         let x = g.face_center(2, i as isize, j as isize, kk as isize);
         if x[2] > 0.5 * n[2] as f64 {
-            m += f.c[2].data[g.idx_u(i, j, kk)] * (k * x[0]).cos();
+            m += f.c[2].values()[g.idx_u(i, j, kk)] * (k * x[0]).cos();
         }
     }
     m
@@ -1123,7 +1127,8 @@ fn semi_implicit_bending_is_the_rate_of_the_force() {
         let mut v = VectorField::zeros(&g);
         for (i, j, kk) in g.cells() {
             let x = g.face_center(2, i as isize, j as isize, kk as isize);
-            v.c[2].data[g.idx_u(i, j, kk)] = if x[2] > 0.5 * n as f64 { (k * x[0]).cos() } else { 0.0 };
+            v.c[2].values_mut()[g.idx_u(i, j, kk)] =
+                if x[2] > 0.5 * n as f64 { (k * x[0]).cos() } else { 0.0 };
         }
         v.fill_ghosts(&g);
         let mut op = BendingImplicit::new(&g, 1.0, 1.0).unwrap();
@@ -1144,9 +1149,9 @@ fn semi_implicit_bending_is_the_rate_of_the_force() {
             for c in 0..3 {
                 let a = t.apply_at(&g, &v, c, idx);
                 assert!(
-                    (a - y.c[c].data[idx]).abs() <= 1e-12 * (1.0 + a.abs()),
+                    (a - y.c[c].values()[idx]).abs() <= 1e-12 * (1.0 + a.abs()),
                     "{c} {idx}: {a} vs {}",
-                    y.c[c].data[idx]
+                    y.c[c].values()[idx]
                 );
             }
         }

@@ -88,13 +88,13 @@ fn assemble(n: usize, mut apply: impl FnMut(&[f64]) -> Vec<f64>) -> SparseColMat
 fn to_vector(g: &Grid<f64>, f: &[(usize, usize, bool)], x: &[f64]) -> VectorField<f64> {
     let mut v = VectorField::zeros(g);
     for (&(c, idx, _), &xv) in f.iter().zip(x) {
-        v.c[c].data[idx] = xv;
+        v.c[c].values_mut()[idx] = xv;
     }
     v
 }
 
 fn from_vector(f: &[(usize, usize, bool)], v: &VectorField<f64>) -> Vec<f64> {
-    f.iter().map(|&(c, idx, _)| v.c[c].data[idx]).collect()
+    f.iter().map(|&(c, idx, _)| v.c[c].values()[idx]).collect()
 }
 
 /// `max |A_ij - A_ji| / max |A_ij|` over the rows and columns in `keep`, and the dense block.
@@ -166,7 +166,7 @@ fn predictor_is_symmetric_positive_definite_and_the_krylov_solutions_match_spars
                 Coefficient::Uniform(r) => *r,
                 Coefficient::Field(r) => f
                     .iter()
-                    .map(|&(c, idx, _)| 0.5 * (r.data[idx] + r.data[idx - g.strides()[c]]))
+                    .map(|&(c, idx, _)| 0.5 * (r.values()[idx] + r.values()[idx - g.strides()[c]]))
                     .fold(f64::INFINITY, f64::min),
             };
             let cond = lmax / lmin;
@@ -214,7 +214,7 @@ fn predictor_is_symmetric_positive_definite_and_the_krylov_solutions_match_spars
 fn pressure_apply(g: &Grid<f64>, rho: &Coefficient<f64>, cl: &[usize], x: &[f64]) -> Vec<f64> {
     let mut psi = Field::zeros(g);
     for (&idx, &v) in cl.iter().zip(x) {
-        psi.data[idx] = v;
+        psi.values_mut()[idx] = v;
     }
     psi.fill_ghosts(g);
     let mut gr = VectorField::zeros(g);
@@ -222,9 +222,9 @@ fn pressure_apply(g: &Grid<f64>, rho: &Coefficient<f64>, cl: &[usize], x: &[f64]
     for (c, gc) in gr.c.iter_mut().enumerate() {
         for (i, j, k) in g.cells() {
             let idx = g.idx_u(i, j, k);
-            gc.data[idx] /= match rho {
+            gc.values_mut()[idx] /= match rho {
                 Coefficient::Uniform(r) => *r,
-                Coefficient::Field(r) => 0.5 * (r.data[idx] + r.data[idx - g.strides()[c]]),
+                Coefficient::Field(r) => 0.5 * (r.values()[idx] + r.values()[idx - g.strides()[c]]),
             };
         }
     }
@@ -232,7 +232,7 @@ fn pressure_apply(g: &Grid<f64>, rho: &Coefficient<f64>, cl: &[usize], x: &[f64]
     gr.fill_ghosts_homogeneous(g);
     let mut d = Field::zeros(g);
     divergence(g, &gr, &mut d);
-    cl.iter().map(|&idx| -d.data[idx]).collect()
+    cl.iter().map(|&idx| -d.values()[idx]).collect()
 }
 
 #[test]
@@ -263,7 +263,7 @@ fn pressure_operator_is_symmetric_semidefinite_and_the_projection_matches_sparse
             vs.fill_ghosts(&g);
             let mut div = Field::zeros(&g);
             divergence(&g, &vs, &mut div);
-            let mut b: Vec<f64> = cl.iter().map(|&idx| -div.data[idx] / dt).collect();
+            let mut b: Vec<f64> = cl.iter().map(|&idx| -div.values()[idx] / dt).collect();
             let mean = b.iter().sum::<f64>() / n as f64;
             b.iter_mut().for_each(|v| *v -= mean);
             // Sparse LU of the system with psi_0 = 0 in place of the first (redundant) equation.
@@ -287,13 +287,13 @@ fn pressure_operator_is_symmetric_semidefinite_and_the_projection_matches_sparse
             let mut proj = Projection::new(&g, KrylovParams { tolerance: tol, max_iterations: 500 }).unwrap();
             let (mut psi, mut vnew) = (Field::zeros(&g), VectorField::zeros(&g));
             let info = proj.project(&g, &m.rho, dt, &vs, &mut psi, &mut vnew).unwrap();
-            let x_lib = demean(cl.iter().map(|&idx| psi.data[idx]).collect());
+            let x_lib = demean(cl.iter().map(|&idx| psi.values()[idx]).collect());
             let e = rel_diff(&x_lib, &x_lu);
             // The new velocity is discretely divergence-free.
             let mut vn = vnew.clone();
             vn.fill_ghosts(&g);
             divergence(&g, &vn, &mut div);
-            let dmax = cl.iter().map(|&idx| div.data[idx].abs()).fold(0.0, f64::max);
+            let dmax = cl.iter().map(|&idx| div.values()[idx].abs()).fold(0.0, f64::max);
             let solver = if info.iterations == 0 { "FFT direct" } else { "PCG" };
             println!(
                 "{gname} {mname}: asymmetry {asym:.1e}, eigenvalues 0 ({:.1e}), [{:.4}, {lmax:.2}], cond {cond:.1}; \

@@ -50,7 +50,7 @@ fn same_state(a: &Simulation<f64>, b: &Simulation<f64>) -> bool {
     let eq = |x: &[f64], y: &[f64]| x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
     let g = a.grid();
     let interior = |f: &eulermembrane::grid::Field<f64>| -> Vec<f64> {
-        g.cells().map(|(i, j, k)| f.data[g.idx_u(i, j, k)]).collect()
+        g.cells().map(|(i, j, k)| f.values()[g.idx_u(i, j, k)]).collect()
     };
     a.time() == b.time()
         && a.steps() == b.steps()
@@ -63,11 +63,9 @@ fn same_state(a: &Simulation<f64>, b: &Simulation<f64>) -> bool {
         )
         && {
             let (ga, gb) = (a.gs(0).unwrap().unwrap(), b.gs(0).unwrap().unwrap());
-            a.band(0)
-                .unwrap()
-                .cells()
-                .iter()
-                .all(|&idx| (0..6).all(|c| ga.c[c].data[idx].to_bits() == gb.c[c].data[idx].to_bits()))
+            a.band(0).unwrap().cells().iter().all(|&idx| {
+                (0..6).all(|c| ga.c[c].values()[idx].to_bits() == gb.c[c].values()[idx].to_bits())
+            })
         }
 }
 
@@ -228,7 +226,7 @@ fn a_prestretched_capsule_holds_a_pressure_jump() {
     }
     let g = sim.grid();
     let p = sim.pressure();
-    let jump = p.data[g.idx_u(8, 8, 8)] - p.data[g.idx_u(0, 0, 0)];
+    let jump = p.values()[g.idx_u(8, 8, 8)] - p.values()[g.idx_u(0, 0, 0)];
     let tension = eulermembrane::membrane::equibiaxial_tension(&NeoHookean::new(1.0).unwrap(), 1.05).unwrap();
     let expected = 2.0 * tension / 0.3;
     assert!((jump / expected - 1.0).abs() < 0.25, "jump {jump} vs 2T/r = {expected}");
@@ -288,7 +286,7 @@ fn membrane_force_of_a_prestretched_capsule(traction: Traction) {
     sim.membrane_force(1e-1, &mut f2).unwrap();
     let (mut diff, mut size) = (0.0f64, 0.0f64);
     for d in 0..3 {
-        for (a, b) in f.c[d].data.iter().zip(&f2.c[d].data) {
+        for (a, b) in f.c[d].values().iter().zip(f2.c[d].values()) {
             diff = diff.max((a - b).abs());
             size = size.max(a.abs());
         }
@@ -321,7 +319,7 @@ fn two_capsules_passing_close_do_not_merge() {
         sim.step(5e-3).unwrap();
         let (p0, p1) = (sim.phi(0).unwrap(), sim.phi(1).unwrap());
         let overlap: f64 =
-            g.cells().map(|(i, j, k)| p0.data[g.idx_u(i, j, k)] * p1.data[g.idx_u(i, j, k)]).sum();
+            g.cells().map(|(i, j, k)| p0.values()[g.idx_u(i, j, k)] * p1.values()[g.idx_u(i, j, k)]).sum();
         max_overlap = max_overlap.max(overlap * g.cell_volume() / v[0]);
         if sim.centroid(0).unwrap()[0] > sim.centroid(1).unwrap()[0] + 0.1 {
             passed = true;
@@ -333,7 +331,7 @@ fn two_capsules_passing_close_do_not_merge() {
         let drift = (sim.volume(c).unwrap() - v).abs() / v;
         assert!(drift < 1e-12, "capsule {c} volume drift {drift:e}");
         let phi = sim.phi(c).unwrap();
-        let max = g.cells().map(|(i, j, k)| phi.data[g.idx_u(i, j, k)]).fold(0.0, f64::max);
+        let max = g.cells().map(|(i, j, k)| phi.values()[g.idx_u(i, j, k)]).fold(0.0, f64::max);
         assert!(max > 0.9, "capsule {c} lost its interior: max phi {max}");
     }
     assert!(max_overlap < 0.05, "the two phi fields overlap by {max_overlap:.3} of a capsule volume");
@@ -385,7 +383,7 @@ fn reference_area_and_elastic_energy_of_a_prestretched_capsule() {
     let g = sim.grid().clone();
     let band_area = {
         let (band, delta) = (sim.band(0).unwrap(), sim.delta(0).unwrap());
-        band.cells().iter().map(|&i| delta.data[i]).sum::<f64>() * g.cell_volume()
+        band.cells().iter().map(|&i| delta.values()[i]).sum::<f64>() * g.cell_volume()
     };
     let s0 = sim.reference_area(0).unwrap().unwrap();
     assert!((s0 / band_area - 1.0).abs() < 1e-12, "{s0} {band_area}");

@@ -165,12 +165,12 @@ fn shear(sim: &mut Simulation<f64>) {
 
 fn assert_same_state(a: &Simulation<f64>, b: &Simulation<f64>) {
     for d in 0..3 {
-        assert_eq!(a.velocity().c[d].data, b.velocity().c[d].data, "velocity {d}");
+        assert_eq!(a.velocity().c[d].values(), b.velocity().c[d].values(), "velocity {d}");
     }
-    assert_eq!(a.pressure().data, b.pressure().data, "pressure");
-    assert_eq!(a.phi(0).unwrap().data, b.phi(0).unwrap().data, "phi");
+    assert_eq!(a.pressure().values(), b.pressure().values(), "pressure");
+    assert_eq!(a.phi(0).unwrap().values(), b.phi(0).unwrap().values(), "phi");
     for d in 0..3 {
-        assert_eq!(a.normal(0).unwrap()[d].data, b.normal(0).unwrap()[d].data, "normal {d}");
+        assert_eq!(a.normal(0).unwrap()[d].values(), b.normal(0).unwrap()[d].values(), "normal {d}");
     }
 }
 

@@ -112,18 +112,18 @@ fn simulate(
     let (mut inside, mut outside) = ((0.0, 0usize), (0.0, 0usize));
     for (i, j, k) in g.cells() {
         let idx = g.idx_u(i, j, k);
-        if phi.data[idx] > 0.999 {
-            inside = (inside.0 + p.data[idx], inside.1 + 1);
-        } else if phi.data[idx] < 0.001 {
-            outside = (outside.0 + p.data[idx], outside.1 + 1);
+        if phi.values()[idx] > 0.999 {
+            inside = (inside.0 + p.values()[idx], inside.1 + 1);
+        } else if phi.values()[idx] < 0.001 {
+            outside = (outside.0 + p.values()[idx], outside.1 + 1);
         }
     }
     let jump = inside.0 / inside.1 as f64 - outside.0 / outside.1 as f64;
     let vmax = (0..3)
         .flat_map(|c| g.cells().map(move |(i, j, k)| (c, g.idx_u(i, j, k))))
-        .map(|(c, idx)| sim.velocity().c[c].data[idx].abs())
+        .map(|(c, idx)| sim.velocity().c[c].values()[idx].abs())
         .fold(0.0, f64::max);
-    let corner = p.data[g.idx_u(0, n / 2, n / 2)];
-    let section = (0..n).map(|i| p.data[g.idx_u(i, n / 2, n / 2)] - corner).collect();
+    let corner = p.values()[g.idx_u(0, n / 2, n / 2)];
+    let section = (0..n).map(|i| p.values()[g.idx_u(i, n / 2, n / 2)] - corner).collect();
     Ok(Outcome { jump, laplace: 2.0 * tension, spurious: vmax / (tension / mu), section })
 }

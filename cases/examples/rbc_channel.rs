@@ -324,7 +324,7 @@ fn section(g: &Grid<f64>, phi: &Field<f64>, axis: usize, at: f64) -> Vec<[(f64, 
             let mut ijk = [i, 0, 0];
             ijk[q] = b;
             ijk[axis] = layer;
-            phi.data[g.idx_u(ijk[0], ijk[1], ijk[2])]
+            phi.values()[g.idx_u(ijk[0], ijk[1], ijk[2])]
         })
         .collect();
     contour_segments(nx, nq, 0.5 * h[0], 0.5 * h[q], h[0], h[q], &vals, 0.5)
@@ -349,7 +349,7 @@ fn face_x(
         ijk[d] = ((x / h[d]).max(0.0) as usize).min(n[d] - 1);
     }
     let ic = (centre[0] / h[0]) as isize;
-    let line = |i: isize| phi.data[g.idx_u(i.rem_euclid(n[0] as isize) as usize, ijk[1], ijk[2])];
+    let line = |i: isize| phi.values()[g.idx_u(i.rem_euclid(n[0] as isize) as usize, ijk[1], ijk[2])];
     let mut prev = line(ic);
     for s in 1..(n[0] as isize / 2) {
         let cur = line(ic + dir * s);

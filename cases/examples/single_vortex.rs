@@ -192,7 +192,7 @@ fn print_table(runs: &[Run], o: &Opts) {
 fn contour(g: &Grid<f64>, f: &Field<f64>, level: f64) -> Vec<[(f64, f64); 2]> {
     let [nx, ny, _] = g.n();
     let h = g.h();
-    let values: Vec<f64> = g.cells().map(|(i, j, k)| f.data[g.idx_u(i, j, k)]).collect();
+    let values: Vec<f64> = g.cells().map(|(i, j, k)| f.values()[g.idx_u(i, j, k)]).collect();
     contour_segments(nx, ny, 0.5 * h[0], 0.5 * h[1], h[0], h[1], &values, level)
 }
 
@@ -224,13 +224,13 @@ fn plots(g: &Grid<f64>, snaps: &[Snap<f64>], o: &Opts, n: usize) -> eulermembran
         let mut peak = vec![0.0f64; bins];
         for (i, j, k) in g.cells() {
             let id = g.idx_u(i, j, k);
-            if !(phi.data[id] > 0.02 && phi.data[id] < 0.98) {
+            if !(phi.values()[id] > 0.02 && phi.values()[id] < 0.98) {
                 continue;
             }
             let x = g.cell_center(i as isize, j as isize, k as isize);
             let th = (x[1] - 0.75).atan2(x[0] - 0.5).to_degrees();
             let b = (((th + 180.0) / 360.0 * bins as f64) as usize).min(bins - 1);
-            peak[b] = peak[b].max(kt.data[id] * h);
+            peak[b] = peak[b].max(kt.values()[id] * h);
         }
         ((0..bins).map(|b| -180.0 + (b as f64 + 0.5) * 360.0 / bins as f64).collect(), peak)
     };

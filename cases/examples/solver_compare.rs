@@ -34,7 +34,7 @@ fn run(n: usize, steps: usize, solver: PredictorSolver) -> (usize, f64, Vec<f64>
         iters += s.step(dt, &(), None).unwrap().predictor_iterations;
     }
     let secs = t0.elapsed().as_secs_f64();
-    let u: Vec<f64> = s.velocity().c[0].data.clone();
+    let u: Vec<f64> = s.velocity().c[0].values().to_vec();
     (iters, secs, u)
 }
 

@@ -326,7 +326,8 @@ fn plots(
         // The section between the two middle cell layers.
         let vals: Vec<f64> = (0..nz)
             .flat_map(|k| {
-                (0..nx).map(move |i| 0.5 * (phi.data[g.idx_u(i, j - 1, k)] + phi.data[g.idx_u(i, j, k)]))
+                (0..nx)
+                    .map(move |i| 0.5 * (phi.values()[g.idx_u(i, j - 1, k)] + phi.values()[g.idx_u(i, j, k)]))
             })
             .collect();
         let segs = contour_segments(nx, nz, 0.5 * h[0], 0.5 * h[2], h[0], h[2], &vals, 0.5);
@@ -343,7 +344,7 @@ fn restrict_cells(fine: &Grid<f64>, f: &Field<f64>, coarse: &Grid<f64>) -> Vec<f
         .map(|(i, j, k)| {
             let mut s = 0.0;
             for (a, b, c) in (0..8).map(|m| (m & 1, (m >> 1) & 1, m >> 2)) {
-                s += f.data[fine.idx_u(2 * i + a, 2 * j + b, 2 * k + c)];
+                s += f.values()[fine.idx_u(2 * i + a, 2 * j + b, 2 * k + c)];
             }
             s / 8.0
         })
@@ -363,7 +364,7 @@ fn restrict_faces(fine: &Grid<f64>, f: &Field<f64>, coarse: &Grid<f64>, d: usize
                 let (a, b) = ((d + 1) % 3, (d + 2) % 3);
                 ijk[a] += m & 1;
                 ijk[b] += m >> 1;
-                s += f.data[fine.idx_u(ijk[0], ijk[1], ijk[2])];
+                s += f.values()[fine.idx_u(ijk[0], ijk[1], ijk[2])];
             }
             s / 4.0
         })
@@ -376,7 +377,7 @@ fn centred(g: &Grid<f64>, f: &Field<f64>, d: usize) -> Field<f64> {
     let mut c = f.clone();
     for (i, j, k) in g.cells() {
         let id = g.idx_u(i, j, k);
-        c.data[id] = 0.5 * (f.data[id] + f.data[id + step]);
+        c.values_mut()[id] = 0.5 * (f.values()[id] + f.values()[id + step]);
     }
     c
 }
@@ -408,7 +409,7 @@ fn norms(a: &[f64], b: &[f64]) -> [f64; 3] {
 }
 
 fn interior(g: &Grid<f64>, f: &Field<f64>) -> Vec<f64> {
-    g.cells().map(|(i, j, k)| f.data[g.idx_u(i, j, k)]).collect()
+    g.cells().map(|(i, j, k)| f.values()[g.idx_u(i, j, k)]).collect()
 }
 
 fn zero_mean(mut v: Vec<f64>) -> Vec<f64> {

@@ -77,14 +77,14 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         g.cells()
             .map(|(i, j, k)| {
                 let id = g.idx_u(i, j, k);
-                ((a.data[id] - b.data[id]) * scale).abs()
+                ((a.values()[id] - b.values()[id]) * scale).abs()
             })
             .sum::<f64>()
             / g.cell_count() as f64
     };
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for (i, j, k) in g.cells() {
-        let x = phi.data[g.idx_u(i, j, k)];
+        let x = phi.values()[g.idx_u(i, j, k)];
         lo = lo.min(x);
         hi = hi.max(x);
     }

@@ -46,7 +46,7 @@ pub fn taylor_green_snapshot(
     for d in 0..2 {
         for (i, j, k) in grid.cells() {
             let x = grid.face_center(d, i as isize, j as isize, k as isize);
-            let e = v.c[d].data[grid.idx_u(i, j, k)] - exact(x, t_end)[d];
+            let e = v.c[d].values()[grid.idx_u(i, j, k)] - exact(x, t_end)[d];
             sum += e * e;
             max = max.max(e.abs());
             count += 1.0;
@@ -67,7 +67,7 @@ fn channel_grid(n: usize, top_velocity: f64) -> Grid<f64> {
 pub fn profile(s: &FlowStepper<f64>) -> Vec<(f64, f64)> {
     let g = s.grid();
     (0..g.n()[1])
-        .map(|j| (g.cell_center(0, j as isize, 0)[1], s.velocity().c[0].data[g.idx_u(0, j, 0)]))
+        .map(|j| (g.cell_center(0, j as isize, 0)[1], s.velocity().c[0].values()[g.idx_u(0, j, 0)]))
         .collect()
 }
 

@@ -83,7 +83,7 @@ fn norms<T: Real>(g: &Grid<T>, a: &Field<T>, b: &Field<T>, scale: f64) -> [f64; 
     let (mut l1, mut l2, mut li) = (0.0, 0.0, 0.0f64);
     for (i, j, k) in g.cells() {
         let id = g.idx_u(i, j, k);
-        let e = ((a.data[id] - b.data[id]).f64() * scale).abs();
+        let e = ((a.values()[id] - b.values()[id]).f64() * scale).abs();
         l1 += e;
         l2 += e * e;
         li = li.max(e);
@@ -114,7 +114,7 @@ pub fn run<T: Real>(
         let s = if case.sin { (PI * y).sin().powi(2) } else { (PI * y).cos().powi(2) };
         T::lit((PI * x).sin().powi(2) * s / PI)
     });
-    let umax = v0.c[0].data.iter().chain(&v0.c[1].data).fold(0.0f64, |m, x| m.max(x.f64().abs()));
+    let umax = v0.c[0].values().iter().chain(v0.c[1].values()).fold(0.0f64, |m, x| m.max(x.f64().abs()));
     let t_end = 1.0;
     let steps = (t_end * umax / (case.cfl * h)).ceil() as usize;
     let dt = t_end / steps as f64;
@@ -135,7 +135,7 @@ pub fn run<T: Real>(
         let t = s as f64 * dt;
         let c = T::lit((PI * t / t_end).cos());
         for d in 0..2 {
-            for (x, y) in v.c[d].data.iter_mut().zip(&v0.c[d].data) {
+            for (x, y) in v.c[d].values_mut().iter_mut().zip(v0.c[d].values()) {
                 *x = c * *y;
             }
         }
@@ -159,7 +159,7 @@ pub fn run<T: Real>(
     }
     let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
     for (i, j, k) in g.cells() {
-        let x = phi.data[g.idx_u(i, j, k)].f64();
+        let x = phi.values()[g.idx_u(i, j, k)].f64();
         min = min.min(x);
         max = max.max(x);
     }

@@ -162,7 +162,7 @@ fn many_steps_on_a_coarse_grid() {
 
 /// Largest velocity component on the faces.
 fn max_speed(sim: &eulermembrane::simulation::Simulation<f64>) -> f64 {
-    sim.velocity().c.iter().flat_map(|f| f.data.iter()).fold(0.0, |m, x| m.max(x.abs()))
+    sim.velocity().c.iter().flat_map(|f| f.values().iter()).fold(0.0, |m, x| m.max(x.abs()))
 }
 
 /// A sphere of radius 12.8 cells at rest with bending only (its own shape as the reference,

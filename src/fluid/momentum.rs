@@ -34,6 +34,11 @@ pub enum Coefficient<T> {
 
 impl<T: Real> Coefficient<T> {
     /// Value at cell `idx`.
+    ///
+    /// # Panics
+    ///
+    /// If the coefficient is a field and `idx` is not one of its storage indices (`idx` at least
+    /// [`Grid::len`] of its grid).
     #[inline(always)]
     pub fn at(&self, idx: usize) -> T {
         match self {

@@ -25,7 +25,7 @@ use crate::tensor::SYM_PAIRS;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Field<T> {
     /// Storage, x fastest, `grid.len()` values; index with [`Grid::idx`].
-    pub data: Vec<T>,
+    pub(crate) data: Vec<T>,
 }
 
 /// How a ghost layer is filled on one side of one axis.
@@ -65,9 +65,24 @@ impl<T: Real> Field<T> {
     }
 
     /// Value at cell `(i, j, k)` (ghost indices allowed).
+    ///
+    /// # Panics
+    ///
+    /// If `grid.idx(i, j, k)` is outside the field's storage (an index beyond the ghost layers
+    /// may instead read another cell).
     #[inline(always)]
     pub fn at(&self, grid: &Grid<T>, i: isize, j: isize, k: isize) -> T {
         self.data[grid.idx(i, j, k)]
+    }
+
+    /// Storage, ghosts included, x fastest, `grid.len()` values; index with [`Grid::idx`].
+    pub fn values(&self) -> &[T] {
+        &self.data
+    }
+
+    /// Storage to write, ghosts included, x fastest, `grid.len()` values; index with [`Grid::idx`].
+    pub fn values_mut(&mut self) -> &mut [T] {
+        &mut self.data
     }
 
     /// Sets every value, ghosts included, to `v`.
@@ -242,12 +257,22 @@ impl<T: Real> SymField<T> {
     }
 
     /// The tensor at storage index `idx`.
+    ///
+    /// # Panics
+    ///
+    /// If `idx` is not a storage index of every component (`idx` at least [`Grid::len`] of
+    /// their grid).
     #[inline(always)]
     pub fn get(&self, idx: usize) -> [T; 6] {
         std::array::from_fn(|c| self.c[c].data[idx])
     }
 
     /// Stores tensor `a` at storage index `idx`.
+    ///
+    /// # Panics
+    ///
+    /// If `idx` is not a storage index of every component (`idx` at least [`Grid::len`] of
+    /// their grid).
     #[inline(always)]
     pub fn set(&mut self, idx: usize, a: &[T; 6]) {
         for (comp, &x) in self.c.iter_mut().zip(a) {

@@ -48,6 +48,11 @@ pub fn par_interior_update<T: Real>(
 }
 
 /// Divergence of a staggered vector at cell `idx`: `sum_d (v_d[i + e_d] - v_d[i]) / h_d`.
+///
+/// # Panics
+///
+/// If `idx` or a neighbour it reads is outside the storage of `v` (never for an interior
+/// cell of a field of `grid`).
 #[inline(always)]
 pub fn divergence_at_cell<T: Real>(grid: &Grid<T>, v: &VectorField<T>, idx: usize) -> T {
     let st = grid.strides();
@@ -66,6 +71,11 @@ pub fn divergence<T: Real>(grid: &Grid<T>, v: &VectorField<T>, out: &mut Field<T
 }
 
 /// Gradient of a cell-centred scalar on the lower face of cell `idx` normal to `axis`.
+///
+/// # Panics
+///
+/// If `idx` or a neighbour it reads is outside the storage of `p` (never for an interior
+/// cell of a field of `grid`).
 #[inline(always)]
 pub fn gradient_at_face<T: Real>(grid: &Grid<T>, p: &Field<T>, axis: usize, idx: usize) -> T {
     let s = grid.strides()[axis];
@@ -87,6 +97,11 @@ pub fn gradient<T: Real>(grid: &Grid<T>, p: &Field<T>, out: &mut VectorField<T>)
 ///
 /// Diagonal terms are the compact differences across the cell; off-diagonal terms are central
 /// differences over two cells of the component averaged to the cell centre. Needs one ghost layer.
+///
+/// # Panics
+///
+/// If `idx` or a neighbour it reads is outside the storage of `v` (never for an interior
+/// cell of a field of `grid`).
 #[inline(always)]
 pub fn grad_v_at_cell<T: Real>(grid: &Grid<T>, v: &VectorField<T>, idx: usize) -> Mat3<T> {
     let st = grid.strides();
@@ -112,6 +127,11 @@ pub fn grad_v_at_cell<T: Real>(grid: &Grid<T>, v: &VectorField<T>, idx: usize) -
 }
 
 /// The vector of three cell-centred fields (e.g. the unit normal) at cell `idx`.
+///
+/// # Panics
+///
+/// If `idx` is not a storage index of every field of `f` (`idx` at least [`Grid::len`] of
+/// their grid).
 #[inline(always)]
 pub fn cell_vector<T: Real>(f: &[Field<T>; 3], idx: usize) -> Vec3<T> {
     [f[0].data[idx], f[1].data[idx], f[2].data[idx]]
@@ -119,6 +139,11 @@ pub fn cell_vector<T: Real>(f: &[Field<T>; 3], idx: usize) -> Vec3<T> {
 
 /// Gradient of three cell-centred fields at the centre of cell `idx` by central differences:
 /// `g[i][j] = d f_j / d x_i`. Needs one ghost layer.
+///
+/// # Panics
+///
+/// If `idx` or a neighbour it reads is outside the storage of `f` (never for an interior
+/// cell of a field of `grid`).
 #[inline(always)]
 pub fn grad_cell_vector_at<T: Real>(grid: &Grid<T>, f: &[Field<T>; 3], idx: usize) -> Mat3<T> {
     let st = grid.strides();
@@ -135,6 +160,11 @@ pub fn grad_cell_vector_at<T: Real>(grid: &Grid<T>, f: &[Field<T>; 3], idx: usiz
 }
 
 /// Average of a cell-centred field on the lower face of cell `idx` normal to `axis`.
+///
+/// # Panics
+///
+/// If `idx` or a neighbour it reads is outside the storage of `f` (never for an interior
+/// cell of a field of `grid`).
 #[inline(always)]
 pub fn cell_to_face<T: Real>(grid: &Grid<T>, f: &Field<T>, axis: usize, idx: usize) -> T {
     T::lit(0.5) * (f.data[idx] + f.data[idx - grid.strides()[axis]])
@@ -142,6 +172,11 @@ pub fn cell_to_face<T: Real>(grid: &Grid<T>, f: &Field<T>, axis: usize, idx: usi
 
 /// Average of a cell-centred field on the edge at the lower corner of cell `idx` in the plane
 /// of axes `a` and `b` (the edge parallel to the third axis), from its four neighbouring cells.
+///
+/// # Panics
+///
+/// If `idx` or a neighbour it reads is outside the storage of `f` (never for an interior
+/// cell of a field of `grid`).
 #[inline(always)]
 pub fn cell_to_edge<T: Real>(grid: &Grid<T>, f: &Field<T>, a: usize, b: usize, idx: usize) -> T {
     let st = grid.strides();
@@ -151,6 +186,11 @@ pub fn cell_to_edge<T: Real>(grid: &Grid<T>, f: &Field<T>, a: usize, b: usize, i
 
 /// Average of a cell-centred field at the lower node `(i-1/2, j-1/2, k-1/2)` of cell `idx`, from
 /// its eight neighbouring cells (Sec. 2.2.2).
+///
+/// # Panics
+///
+/// If `idx` or a neighbour it reads is outside the storage of `f` (never for an interior
+/// cell of a field of `grid`).
 #[inline(always)]
 pub fn cell_to_node<T: Real>(grid: &Grid<T>, f: &Field<T>, idx: usize) -> T {
     let [_, sy, sz] = grid.strides();
@@ -167,6 +207,11 @@ pub fn cell_to_node<T: Real>(grid: &Grid<T>, f: &Field<T>, idx: usize) -> T {
 }
 
 /// Staggered velocity averaged to the centre of cell `idx`.
+///
+/// # Panics
+///
+/// If `idx` or a neighbour it reads is outside the storage of `v` (never for an interior
+/// cell of a field of `grid`).
 #[inline(always)]
 pub fn velocity_at_cell<T: Real>(grid: &Grid<T>, v: &VectorField<T>, idx: usize) -> [T; 3] {
     let st = grid.strides();

@@ -46,8 +46,10 @@
 //!
 //! The per-cell functions index the field like a slice: a storage index whose stencil leaves
 //! the stored array (a ghost cell near the edge of the padding, or a field of another grid)
-//! panics. Interior cells of a field of `grid` are always valid; the field-level methods only
-//! visit those.
+//! panics. Interior cells of a field of `grid` are always valid, except for [`normal_at`] and
+//! [`curvature_at`] with [`NormalScheme::Deconvolved`] (radius 4 on the fly, more than
+//! [`GHOST`](crate::grid::GHOST)) in the outermost layer of cells; the field-level methods only
+//! visit interior cells.
 
 use crate::Real;
 use crate::grid::{Field, Grid};
@@ -441,6 +443,11 @@ fn youngs_grad_n<T: Real, F: Fn(isize) -> T>(f: &F, s: &Stencil<T>) -> [[T; 3]; 
 }
 
 /// `delta = |grad phi|` (2.26) at cell `idx`, by second-order central differences of `phi`.
+///
+/// # Panics
+///
+/// If `idx` or a neighbour it reads is outside the storage of `phi` (never for an interior
+/// cell of a field of `grid`).
 #[inline]
 pub fn delta_at<T: Real>(grid: &Grid<T>, phi: &Field<T>, idx: usize) -> T {
     let s = Stencil::new(grid);
@@ -511,6 +518,12 @@ fn on_the_fly<T: Real, R>(
 /// The unit normal (into the capsule) at cell `idx`, or `None` where the gradient vanishes
 /// (a flat `phi`). For the inverse-tanh schemes `psi` is computed on the fly from `phi`; for
 /// many cells use a [`Geometry`], which caches it.
+///
+/// # Panics
+///
+/// If the stencil around `idx` leaves the storage of `phi`: never for an interior cell of a
+/// field of `grid`, except with [`NormalScheme::Deconvolved`] in the outermost layer of cells
+/// (see the [module docs](self#panics)).
 #[inline]
 pub fn normal_at<T: Real>(
     grid: &Grid<T>,
@@ -524,6 +537,12 @@ pub fn normal_at<T: Real>(
 /// The curvature at cell `idx` (see the [module docs](self) for definitions and signs), or
 /// `None` where the gradient vanishes. For the inverse-tanh schemes `psi` is computed on the
 /// fly; for many cells use a [`Geometry`].
+///
+/// # Panics
+///
+/// If the stencil around `idx` leaves the storage of `phi`: never for an interior cell of a
+/// field of `grid`, except with [`NormalScheme::Deconvolved`] in the outermost layer of cells
+/// (see the [module docs](self#panics)).
 #[inline]
 pub fn curvature_at<T: Real>(
     grid: &Grid<T>,
@@ -646,6 +665,11 @@ impl<T: Real> Geometry<T> {
     }
 
     /// The unit normal at cell `idx` (see [`normal_at`]).
+    ///
+    /// # Panics
+    ///
+    /// If the stencil around `idx` leaves the storage of `phi` or of the cache (never for an
+    /// interior cell of a field of the grid this geometry was made for).
     #[inline]
     pub fn normal(&self, grid: &Grid<T>, phi: &Field<T>, idx: usize) -> Option<Vec3<T>> {
         let s = Stencil::new(grid);
@@ -654,6 +678,11 @@ impl<T: Real> Geometry<T> {
     }
 
     /// The curvature at cell `idx` (see [`curvature_at`]).
+    ///
+    /// # Panics
+    ///
+    /// If the stencil around `idx` leaves the storage of `phi` or of the cache (never for an
+    /// interior cell of a field of the grid this geometry was made for).
     #[inline]
     pub fn curvature(&self, grid: &Grid<T>, phi: &Field<T>, idx: usize) -> Option<Curvature<T>> {
         let s = Stencil::new(grid);

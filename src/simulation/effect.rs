@@ -43,7 +43,7 @@
 //!                 let [i, j, k] = ijk.map(|x| x as isize);
 //!                 for d in 0..3 {
 //!                     let x = g.face_center(d, i, j, k);
-//!                     out.c[d].data[idx] += m.delta.data[idx] * self.k * (self.anchor[d] - x[d]);
+//!                     out.c[d].values_mut()[idx] += m.delta.values()[idx] * self.k * (self.anchor[d] - x[d]);
 //!                 }
 //!             }
 //!         }
