@@ -12,10 +12,11 @@
 //! sphere or a circle of radius `R`). Cell averages `<.>` use a tensor Gauss-Legendre rule
 //! ([`Smoothing::points`] per axis; in the xy-plane only on a 2D grid). In the profile's tails,
 //! where a rule with fewer points errs by less than `1e-15` (with a safety factor of 100 on the
-//! error estimate of the exponential tail), fewer points are used (at the default sharpness and 4
-//! points: 3 points from about 16 cells from the surface), and a cell average is exactly 0 or 1
-//! where `H` is within `1e-15` of it over the whole cell (from about 18 cells; no subnormal
-//! tails).
+//! error estimate of the exponential tail), fewer points are used, and a cell average is exactly
+//! 0 or 1 where `H` is that close to it over the whole cell. Where `H` and `1 - H` stay below
+//! `5e-11` over the cell (outside the `phi` range the capsule geometry reads, where `phi` enters
+//! only through sums) the allowed error is `1e-12` instead: at the default sharpness and 4 points,
+//! 3 points from about 13 cells from the surface, 0 or 1 from about 15 (no subnormal tails).
 //!
 //! On periodic axes the query point is moved to the image nearest the shape's centre, so a
 //! shape smaller than half the box may straddle a periodic boundary.
@@ -959,8 +960,15 @@ pub fn smoothed_volume_excess(radius: f64, h: f64, beta: f64) -> f64 {
 }
 
 /// The absolute error allowed to a cell average of `H` where a rule with fewer points than
-/// [`Smoothing::points`] is used (far below the `1e-10` where the geometry starts to read `phi`).
+/// [`Smoothing::points`] is used.
 const TAIL_TOL: f64 = 1e-15;
+/// The absolute error allowed instead in cells where `H` (or `1 - H`) stays below
+/// [`OUTSIDE_GEOMETRY`] over the whole cell: the geometry never reads them, and `phi` enters
+/// there only through sums (volume, fluxes).
+const FAR_TAIL_TOL: f64 = 1e-12;
+/// The `H` below which the capsule geometry does not read `phi` (the `1e-10` of its `phi`
+/// range), with a factor 2 for the error a cell average may carry.
+const OUTSIDE_GEOMETRY: f64 = 5e-11;
 /// Safety factor on the error estimate of [`TailRules`].
 const TAIL_MARGIN: f64 = 100.0;
 
@@ -969,7 +977,8 @@ const TAIL_MARGIN: f64 = 100.0;
 /// `beta' h <= b` per axis errs by at most `E_n(2 b) exp(-z)` per axis, `z = 2 beta' (|s| - d)` at
 /// the cell centre (`d` half its diagonal) and `E_n(l) = l^(2n) (n!)^4 / ((2n + 1) ((2n)!)^3)`
 /// the rule's remainder. A cell uses the fewest points whose error times [`TAIL_MARGIN`] stays
-/// below [`TAIL_TOL`], and is exactly 0 or 1 where `exp(-z) < TAIL_TOL`.
+/// below [`TAIL_TOL`] ([`FAR_TAIL_TOL`] where `exp(-z) < OUTSIDE_GEOMETRY`), and is exactly 0 or
+/// 1 where `exp(-z)` is below that tolerance.
 struct TailRules {
     /// Rules with 1 to `points` points; `min_z[n - 1]` the least `z` where `n` points suffice.
     rules: Vec<(Vec<f64>, Vec<f64>)>,
@@ -989,10 +998,12 @@ impl TailRules {
                 }
                 let e = (2.0 * b).powi(2 * n as i32) * fact(n).powi(4)
                     / ((2 * n + 1) as f64 * fact(2 * n).powi(3));
-                (dims as f64 * e * TAIL_MARGIN / TAIL_TOL).ln()
+                let near = (dims as f64 * e * TAIL_MARGIN / TAIL_TOL).ln();
+                let far = (dims as f64 * e * TAIL_MARGIN / FAR_TAIL_TOL).ln().max(-OUTSIDE_GEOMETRY.ln());
+                near.min(far)
             })
             .collect();
-        TailRules { rules, min_z, flat: -TAIL_TOL.ln() }
+        TailRules { rules, min_z, flat: (-FAR_TAIL_TOL.ln()).max(-OUTSIDE_GEOMETRY.ln()) }
     }
 
     /// The rule for a cell at `z` (nodes and weights on `[-1/2, 1/2]`).
@@ -1022,7 +1033,7 @@ fn cell_averages<T: Real>(
     let periodic: [bool; 3] = std::array::from_fn(|d| grid.is_periodic(d) && grid.n()[d] > 1);
     let center = shape.center();
     let bounding = shape.bounding_radius();
-    // Beyond `far` from the surface every point of a cell has `H` within `TAIL_TOL` of 0 or 1.
+    // Beyond `far` from the surface every point of a cell has `H` within `FAR_TAIL_TOL` of 0 or 1.
     let far = rules.flat / (2.0 * bp) + halfdiag;
     let [nx, ny, _] = grid.n();
     // Value at one point: (H, |grad H| kappa_R).
@@ -1255,8 +1266,9 @@ mod tests {
     #[test]
     fn tail_rules_agree_with_the_full_rule() {
         // Cells out to about 25 cells from the surface, where the fewer-point rules and the
-        // exact 0 / 1 take over: every cell average within 1e-15 of the full rule's (the
-        // curvature term in units of its scale 2 beta' max kappa).
+        // exact 0 / 1 take over: every cell average within 1e-15 of the full rule's where the
+        // geometry reads phi (H and 1 - H above 5e-11), within 1e-12 elsewhere (the curvature
+        // term in units of its scale 2 beta' max kappa).
         let g3 = Grid::<f64>::periodic([32; 3], [0.0; 3], [1.0; 3]).unwrap();
         let g2 = Grid::<f64>::periodic([96, 96, 1], [0.0; 3], [1.0, 1.0, 1.0 / 96.0]).unwrap();
         let sphere = Sphere::new([0.5; 3], 0.08).unwrap();
@@ -1272,8 +1284,9 @@ mod tests {
                 let full = full_rule_averages(g, shape, &sm);
                 let scale = 2.0 * sm.beta / characteristic_length(g) * kmax;
                 for (a, b) in fast.iter().zip(&full) {
-                    assert!((a[0] - b[0]).abs() <= 1e-15, "{sm:?}: H {} against {}", a[0], b[0]);
-                    assert!((a[1] - b[1]).abs() <= 1e-15 * scale, "{sm:?}: kappa {} against {}", a[1], b[1]);
+                    let tol = if b[0].min(1.0 - b[0]) < OUTSIDE_GEOMETRY { FAR_TAIL_TOL } else { TAIL_TOL };
+                    assert!((a[0] - b[0]).abs() <= tol, "{sm:?}: H {} against {}", a[0], b[0]);
+                    assert!((a[1] - b[1]).abs() <= tol * scale, "{sm:?}: kappa {} against {}", a[1], b[1]);
                 }
             }
         }
