@@ -23,9 +23,10 @@
 //!   (Filters > Contour on `phi`, value 0.5), and a Slice normal to y through the centre shows
 //!   the sheared flow around it. The membrane's principal tensions are the fields `t1`, `t2`.
 //!
-//! A checkpoint is restored only into a scene with the same physics: the phases and every
-//! effect's `describe()` line must match (`Simulation::physics`), or `restore` returns an
-//! error naming `checkpoint physics`. The grid must match too. The numerical solvers may differ.
+//! A checkpoint is restored only into a scene with the same physics: the phases, the traction
+//! (`Settings::traction`) and every effect's `describe()` line must match
+//! (`Simulation::physics`), or `restore` returns an error naming `checkpoint physics` that
+//! shows both lines. The grid must match too. The numerical solvers may differ.
 //!
 //! ## What it prints, and what to expect
 //!

@@ -19,7 +19,10 @@ use eulermembrane::interface::{self, AdvectionParams, Advector, Carried, Geometr
 use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use eulermembrane::io::vtk::VtiWriter;
 use eulermembrane::membrane::{self, BendingStress, NeoHookean, Skalak};
-use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{
+    AdaptiveDt, Bending, Effect, Elasticity, Phase, Scene, Settings, Setup, Simulation, StepState,
+    StepWarning, TimeStepping, Traction,
+};
 use eulermembrane::{Error, Result};
 use proptest::prelude::*;
 use std::f64::consts::TAU;
@@ -695,4 +698,177 @@ fn a_truncated_or_corrupted_checkpoint_is_refused_and_changes_nothing() {
     target.restore(&path).unwrap();
     assert_eq!(target.steps(), 1);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A user effect with the time-step limit that `limit` holds (as `f64` bits; `u64::MAX`: none),
+/// which the test may change after the build.
+struct Limited(std::sync::Arc<std::sync::atomic::AtomicU64>);
+
+impl Effect<f64> for Limited {
+    fn name(&self) -> &str {
+        "limited"
+    }
+    fn dt_limit(&self, _: &Setup<'_, f64>) -> Option<f64> {
+        let bits = self.0.load(std::sync::atomic::Ordering::Relaxed);
+        (bits != u64::MAX).then(|| f64::from_bits(bits))
+    }
+    fn add_force(
+        &self,
+        _: &StepState<'_, f64>,
+        _: &VectorField<f64>,
+        _: &mut VectorField<f64>,
+    ) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// An effect's limit that is not finite and `> 0` is refused by `build`, by a step (which then
+/// changes nothing) and by `AdaptiveDt`, each naming `dt_limit` and the effect.
+#[test]
+fn an_effects_invalid_dt_limit_is_refused_naming_the_effect() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let names_the_effect = |e: &Error| match e {
+        Error::InvalidParameter { name: "dt_limit", value, .. } => value.contains("`limited`"),
+        _ => false,
+    };
+    let scene = |limit: &Arc<AtomicU64>| {
+        Scene::new(small(), fluid())
+            .capsule(Sphere::new([0.5; 3], 0.3).unwrap())
+            .effect(Limited(limit.clone()))
+    };
+    for bad in [f64::NAN, 0.0, -1.0, f64::INFINITY] {
+        let e = refused("Scene::build", || scene(&Arc::new(AtomicU64::new(bad.to_bits()))).build());
+        assert!(names_the_effect(&e), "{bad}: {e}");
+        assert!(e.to_string().contains("limited"), "{e}");
+    }
+    // A limit that turns bad during the run: the step fails and leaves the state as it was...
+    let limit = Arc::new(AtomicU64::new(1.0f64.to_bits()));
+    let mut sim = scene(&limit).build().unwrap();
+    sim.step(1e-3).unwrap();
+    limit.store(0.0f64.to_bits(), Ordering::Relaxed);
+    let e = refused("Simulation::step", || sim.step(1e-3));
+    match &e {
+        Error::Step { source, .. } => assert!(names_the_effect(source), "{e}"),
+        other => panic!("expected Error::Step, got {other:?}"),
+    }
+    assert_eq!(sim.steps(), 1);
+    // ...and AdaptiveDt names the effect instead of a step of 0.
+    let mut stepping = AdaptiveDt::new(0.01).unwrap();
+    let e = refused("AdaptiveDt::advance", || stepping.advance(&mut sim, 1.0));
+    assert!(names_the_effect(&e), "{e}");
+    // No limit is fine.
+    limit.store(u64::MAX, Ordering::Relaxed);
+    assert_eq!(sim.membrane_dt_limit(), f64::INFINITY);
+    sim.step(1e-3).unwrap();
+}
+
+/// Two elasticities or two bendings on one capsule would add their forces: `build` refuses
+/// them, naming the effect and the capsule; one per capsule is fine.
+#[test]
+fn two_elasticities_or_bendings_on_one_capsule_are_refused() {
+    let nh = || NeoHookean::new(1.0).unwrap();
+    let two = || {
+        Scene::new(box16(), fluid())
+            .capsule(Sphere::new([0.3, 0.5, 0.5], 0.15).unwrap())
+            .capsule(Sphere::new([0.7, 0.5, 0.5], 0.15).unwrap())
+    };
+    let e = refused("Scene::build", || two().elasticity(nh()).elasticity(nh()).build());
+    assert_eq!(param_name(&e), "elasticity");
+    assert!(e.to_string().contains("capsule 0"), "{e}");
+    let e = refused("Scene::build", || {
+        two().elasticity(nh()).effect(Elasticity::new(Skalak::new(1.0, 2.0).unwrap()).only([1])).build()
+    });
+    assert_eq!(param_name(&e), "elasticity");
+    assert!(e.to_string().contains("capsule 1"), "{e}");
+    let e =
+        refused("Scene::build", || two().bending(1e-3).effect(Bending::new(2e-3).unwrap().only([1])).build());
+    assert_eq!(param_name(&e), "bending");
+    assert!(e.to_string().contains("capsule 1"), "{e}");
+    // A law and a modulus per capsule.
+    two()
+        .effect(Elasticity::new(nh()).only([0]))
+        .effect(Elasticity::new(Skalak::new(1.0, 2.0).unwrap()).only([1]))
+        .effect(Bending::new(1e-3).unwrap().only([0]))
+        .effect(Bending::new(2e-3).unwrap().only([1]))
+        .build()
+        .unwrap();
+}
+
+/// The entries of a checkpoint file (its format: `io::checkpoint`).
+fn checkpoint_entries(bytes: &[u8]) -> Vec<(String, Vec<f64>)> {
+    let word = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
+    let (count, mut at) = (word(8), 16);
+    (0..count)
+        .map(|_| {
+            let len = word(at);
+            let name = String::from_utf8(bytes[at + 8..at + 8 + len].to_vec()).unwrap();
+            at += 8 + len;
+            let n = word(at);
+            let values = (0..n).map(|k| f64::from_bits(word(at + 8 + 8 * k) as u64)).collect();
+            at += 8 + 8 * n;
+            (name, values)
+        })
+        .collect()
+}
+
+/// The traction is part of the physics a checkpoint records: a smoothed-traction checkpoint is
+/// refused by a sharp-traction scene, with both physics lines in the message; so is a
+/// checkpoint that predates the record, saying so.
+#[test]
+fn a_checkpoint_of_another_traction_is_refused_showing_both_physics() {
+    let dir = temp_dir("traction");
+    let path = dir.join("state.ckpt");
+    let mut sim = small_sim();
+    sim.step(1e-3).unwrap();
+    let bytes = checkpoint_bytes(&sim, &path);
+    let sharp = || {
+        let s = Settings { traction: Traction::Sharp, ..Settings::default() };
+        Scene::new(Grid::periodic([12; 3], [0.0; 3], [1.0; 3]).unwrap(), fluid())
+            .capsule(Sphere::new([0.5; 3], 0.3).unwrap())
+            .elasticity(NeoHookean::new(1.0).unwrap())
+            .settings(s)
+            .build()
+            .unwrap()
+    };
+    let mut target = sharp();
+    let e = refused("Simulation::restore", || target.restore(&path));
+    assert_eq!(param_name(&e), "checkpoint physics");
+    let msg = e.to_string();
+    assert!(msg.contains("traction=smoothed") && msg.contains("traction=sharp"), "{msg}");
+    assert_eq!(target.steps(), 0);
+    // A checkpoint written before the traction was recorded.
+    let mut w = CheckpointWriter::new();
+    for (name, values) in checkpoint_entries(&bytes) {
+        match name.as_str() {
+            "physics" => w.text("physics", &sim.physics().replace("; traction=smoothed", "")),
+            _ => w.array(&name, &values),
+        };
+    }
+    w.save(&path).unwrap();
+    let e = refused("Simulation::restore", || small_sim().restore(&path));
+    assert_eq!(param_name(&e), "checkpoint physics");
+    assert!(e.to_string().contains("before checkpoints recorded the traction"), "{e}");
+    // The same file with the traction restores.
+    std::fs::write(&path, &bytes).unwrap();
+    small_sim().restore(&path).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A step whose Courant number exceeds 1 is taken, and its report says so.
+#[test]
+fn a_step_above_a_courant_number_of_one_is_reported() {
+    let mut sim = small_sim();
+    sim.set_velocity(|_| [1.0, 0.0, 0.0]).unwrap();
+    // h = 1/12: a Courant number of 0.3, then 1.56.
+    let r = sim.step(0.3 / 12.0).unwrap();
+    assert_eq!(r.warning, None);
+    let r = sim.step(1.56 / 12.0).unwrap();
+    match r.warning {
+        Some(w @ StepWarning::CourantAboveOne { cfl }) => {
+            assert!(cfl > 1.0 && cfl == r.flow.cfl, "{cfl}");
+            assert!(w.to_string().contains("Courant number"), "{w}");
+        }
+        other => panic!("expected CourantAboveOne, got {other:?}"),
+    }
 }

@@ -355,9 +355,14 @@ pub trait Effect<T: Real>: Send + Sync {
         Ok(())
     }
 
-    /// The largest stable `dt` this effect allows in this scene (`None`: no limit). A step
-    /// with a larger `dt` is still taken, and its [`StepReport`](super::StepReport) carries a
-    /// warning.
+    /// The largest stable `dt` this effect allows in this scene (`None`: no limit), finite and
+    /// `> 0`: [`Scene::build`](super::Scene::build), every step and every [`AdaptiveDt`] step
+    /// refuse any other value with an error naming `dt_limit` and this effect's
+    /// [`name`](Self::name). A step with a larger `dt` is still taken, and its
+    /// [`StepReport`](super::StepReport) carries
+    /// [`StepWarning::DtAboveLimit`](super::StepWarning::DtAboveLimit).
+    ///
+    /// [`AdaptiveDt`]: super::AdaptiveDt
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
         let _ = setup;
         None

@@ -115,12 +115,27 @@ pub struct StepReport {
 }
 
 /// A warning carried by a [`StepReport`]: the step was taken, but its result may not be
-/// trustworthy.
+/// trustworthy. A report carries one warning, the first that applies of
+/// [`CourantAboveOne`](Self::CourantAboveOne), [`DtAboveLimit`](Self::DtAboveLimit) and (from
+/// an [`AdaptiveDt`] run) [`VelocityGrowth`](Self::VelocityGrowth).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
 pub enum StepWarning {
-    /// `dt` is above the stability limit of an effect ([`Simulation::membrane_dt_limit`], see
-    /// [`stability`]): the run may blow up.
+    /// The advective Courant number of the step ([`StepInfo::cfl`](crate::fluid::StepInfo::cfl),
+    /// `max |v_d| dt / h_d` of the new velocity) exceeds 1: the flow moves more than a cell in
+    /// one step, past the stability bound of the interface advection
+    /// ([`interface::advect`](crate::interface::advect)), and the run may fail within a few
+    /// steps (typically in the predictor's solver). The
+    /// validated cases run at a Courant number of 0.3 ([`AdaptiveDt::DEFAULT_CFL`]) and fail
+    /// near 0.35–0.5 ([`stability`]); take a smaller `dt`, or let [`AdaptiveDt`] choose it.
+    CourantAboveOne {
+        /// The step's Courant number.
+        cfl: f64,
+    },
+    /// `dt` is above the smallest time-step limit of the scene's effects
+    /// ([`Simulation::membrane_dt_limit`]: the membrane rules of [`stability`] for
+    /// [`Elasticity`] and [`Bending`], and a user effect's own [`Effect::dt_limit`]): the run
+    /// may blow up.
     DtAboveLimit {
         /// The step's `dt`.
         dt: f64,
@@ -141,10 +156,16 @@ pub enum StepWarning {
 impl std::fmt::Display for StepWarning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
+            StepWarning::CourantAboveOne { cfl } => write!(
+                f,
+                "the Courant number {cfl:.3} of the step exceeds 1 (validated runs use 0.3); \
+                 the run may fail within a few steps: take a smaller dt"
+            ),
             StepWarning::DtAboveLimit { dt, limit } => write!(
                 f,
-                "dt = {dt:.3e} exceeds the membrane stability limit {limit:.3e} \
-                 (see eulermembrane::simulation::stability); the run may blow up"
+                "dt = {dt:.3e} exceeds the time-step limit {limit:.3e} of the scene's effects \
+                 (the membrane's, see eulermembrane::simulation::stability, or an effect's own \
+                 dt_limit); the run may blow up"
             ),
             StepWarning::VelocityGrowth { factor, steps } => write!(
                 f,
@@ -353,6 +374,7 @@ impl<T: Real> Simulation<T> {
 
     /// The body of [`prepare`](Self::prepare), for a valid `dt`; on error the caller discards.
     fn prepare_step(&mut self, dt: T) -> Result<StepReport> {
+        let limit = self.checked_dt_limit()?;
         let grid = &self.grid;
         let mut profile_cells = 0;
         // 1-2: per capsule, beside the state.
@@ -399,8 +421,11 @@ impl<T: Real> Simulation<T> {
         // The energy ledger, from the step's midpoint velocity.
         let (dissipated, work) = self.step_integrals(dt)?;
         let band_cells = self.capsules.iter().map(|c| c.next.band.len()).sum();
-        let limit = self.membrane_dt_limit();
-        let warning = (dt.f64() > limit).then_some(StepWarning::DtAboveLimit { dt: dt.f64(), limit });
+        let warning = if flow_info.cfl > 1.0 {
+            Some(StepWarning::CourantAboveOne { cfl: flow_info.cfl })
+        } else {
+            (dt.f64() > limit).then_some(StepWarning::DtAboveLimit { dt: dt.f64(), limit })
+        };
         let report = StepReport { flow: flow_info, profile_cells, band_cells, warning, retries: 0 };
         self.pending = Some(Pending { report, dissipated, work });
         Ok(report)

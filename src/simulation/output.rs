@@ -11,15 +11,16 @@ use crate::{Error, Result};
 use std::path::Path;
 
 impl<T: Real> Simulation<T> {
-    /// The scene's physics in one line: the phases and every effect's
-    /// [`describe`](super::Effect::describe), as checkpoints record it.
+    /// The scene's physics in one line: the phases, the [`Traction`](super::Traction) and
+    /// every effect's [`describe`](super::Effect::describe), as checkpoints record it.
     pub fn physics(&self) -> String {
         let mut s = format!(
-            "outside rho={:e} mu={:e}; inside rho={:e} mu={:e}",
+            "outside rho={:e} mu={:e}; inside rho={:e} mu={:e}; traction={}",
             self.outside.rho.f64(),
             self.outside.mu.f64(),
             self.inside.rho.f64(),
-            self.inside.mu.f64()
+            self.inside.mu.f64(),
+            self.settings.traction.name()
         );
         for e in &self.effects {
             s.push_str("; ");
@@ -153,20 +154,34 @@ impl<T: Real> Simulation<T> {
     ///
     /// # Errors
     /// [`Error::Io`] for an unreadable or malformed file; [`Error::InvalidParameter`] for a
-    /// checkpoint of another grid or scene.
+    /// checkpoint of another grid or scene: `checkpoint physics` with the checkpoint's and the
+    /// scene's [`physics`](Self::physics) when they differ (a checkpoint written before the
+    /// physics recorded the traction is refused so, saying so), `checkpoint capsules` with
+    /// both counts.
     pub fn restore(&mut self, path: impl AsRef<Path>) -> Result<()> {
         let r = CheckpointReader::open(path)?;
         let physics = r.text("physics")?;
-        if physics != self.physics() {
+        let scene = self.physics();
+        if physics != scene {
+            // Older checkpoints record no traction: which one ran is unknown.
+            let old = if physics.contains("; traction=") {
+                ""
+            } else {
+                " (written before checkpoints recorded the traction, so its traction is unknown)"
+            };
             return Err(Error::invalid(
                 "checkpoint physics",
-                physics,
+                format!("`{physics}`{old}; this scene's is `{scene}`"),
                 "the physics of the scene it is restored into (Simulation::physics)",
             ));
         }
         let count = r.number("capsules")?;
         if count != self.capsules.len() as f64 {
-            return Err(Error::invalid("checkpoint capsules", count, "the capsule count of this scene"));
+            return Err(Error::invalid(
+                "checkpoint capsules",
+                format!("{count}; this scene has {}", self.capsules.len()),
+                "the capsule count of this scene",
+            ));
         }
         // Read everything first.
         let mut read = Vec::with_capacity(self.capsules.len());

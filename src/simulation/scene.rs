@@ -5,6 +5,7 @@
 use super::Simulation;
 use super::effect::{Effect, Setup};
 use super::effects::{Bending, Elasticity, SurfaceLoad};
+use super::stability::effects_dt_limit;
 use crate::error::positive;
 use crate::fluid::{BodyForce, FlowConfig, MomentumSolver, PressureSolver, ViscousScheme};
 use crate::grid::{Grid, Window};
@@ -34,6 +35,27 @@ impl<T: Real> Phase<T> {
 }
 
 /// Numerical settings of a [`Scene`]; the defaults are the ones validated in `docs/`.
+///
+/// # Choosing
+/// Start from `Settings::default()` and change only what the case needs. The validated capsule
+/// runs (`examples/capsule_in_shear.rs`, `cases/examples/shear_capsule.rs`) change one field:
+/// [`traction`](Self::traction) `= Traction::Sharp`, which at 6–8 cells per radius holds the
+/// membrane's reference area and cuts the overshoot of the deformation to a third (the default
+/// [`Traction::Smoothed`] is the paper's). Everything else stays: the damped viscous scheme
+/// `Theta(0.6)`, the band `epsilon = 0.01`, the quasi-implicit membrane coupling, the
+/// semi-implicit bending. For many capsules in a large box,
+/// [`storage`](Self::storage) `= CapsuleStorage::Boxed { room: 1.2 }` saves memory. The step
+/// is not a setting: [`AdaptiveDt::new`](super::AdaptiveDt::new)`(0.05)` (Courant target 0.3)
+/// chooses it; a fixed `dt` should keep the Courant number `max|v| dt / h` near 0.3 and below
+/// [`Simulation::membrane_dt_limit`].
+///
+/// ```
+/// use eulermembrane::simulation::{Settings, Traction};
+///
+/// // The settings of the validated shear runs: the defaults with the sharp traction.
+/// let settings = Settings::<f64> { traction: Traction::Sharp, ..Settings::default() };
+/// assert_eq!(settings.epsilon, 0.01);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings<T> {
     /// Flow solver settings (viscous time scheme, predictor solver, tolerances). Default: those
@@ -558,11 +580,36 @@ impl<T: Real> Scene<T> {
     /// Validates the scene and builds the simulation at rest at `t = 0`.
     ///
     /// # Errors
-    /// [`Error::InvalidParameter`] naming the offending item: a non-positive modulus or
-    /// material value, `epsilon` outside `(0, 1)`, a membrane effect or surface force without
-    /// any capsule (each effect's [`Effect::attach`] error), a capsule whose band (where `phi` is neither 0 nor 1) leaves the domain
-    /// across a wall or comes within two band widths of it, a 2D capsule on a 3D grid or the
-    /// reverse; and the errors of the solvers' constructors.
+    /// The first refusal found: [`Error::InvalidParameter`] naming the offending item,
+    /// - what a setter was given: `eb` of [`bending`](Self::bending) not finite and `> 0`, a
+    ///   non-finite `body_force[d]`;
+    /// - `rho` or `mu` of a [`Phase`] not finite and `> 0`; `epsilon` outside `(0, 1)`;
+    ///   `CapsuleStorage::Boxed room` not finite and `>= 1`;
+    /// - each effect's [`Effect::attach`] (in the order they were added): a membrane effect
+    ///   (`elasticity`, `bending`, `surface_force`, `contact`) in a scene without capsules, or
+    ///   whose `only` list is empty or names a capsule the scene lacks; `elasticity` with a law
+    ///   whose small-strain moduli are not positive, `law` with stress at rest or without
+    ///   finite derivatives there; `traction` [`Traction::Sharp`] with the quasi-implicit
+    ///   coupling and the SOR predictor; `normals` other than `atanh2`/`atanh4` with
+    ///   [`BendingForm::EnergyGradient`]; a [`Contact`](super::Contact)'s `range_cells` beyond
+    ///   what the profiles resolve; a user effect's own errors;
+    /// - `elasticity` or `bending`: two such effects acting on one capsule (their forces would
+    ///   add up), naming the capsule;
+    /// - `dt_limit`: an effect whose [`Effect::dt_limit`] is not finite and `> 0`, naming the
+    ///   effect;
+    /// - `capsule`, naming it: a shape of another dimension than the grid (2 on a grid with one
+    ///   cell along z, else 3); a capsule within two profile widths (`4 h / beta`) of a wall or
+    ///   across it, smaller than a sphere of one cell's radius, or as long as a periodic axis;
+    /// - the settings the capsules' fields are made with: `Smoothing::beta`,
+    ///   `Smoothing::points`, `AdvectionParams::beta` (in `(0, 10]`), `AdvectionParams::tiny`;
+    ///
+    /// and the errors of the solvers and strategies as they are made:
+    /// [`FlowStepper::new`](crate::fluid::FlowStepper::new)'s (invalid [`FlowConfig`]
+    /// settings, more than one wall axis), a user's
+    /// [`interface_transport`](Self::interface_transport) maker's or
+    /// [`normal_estimator`](Self::normal_estimator)'s, and [`Error::Unsupported`] from an
+    /// [`Advector`] asked for `NormalScheme::Deconvolved` or from a boxed capsule whose
+    /// transport cannot move its history with the box ([`InterfaceTransport::roll`]).
     pub fn build(self) -> Result<Simulation<T>> {
         if let Some(e) = self.errors.into_iter().next() {
             return Err(e);
@@ -592,6 +639,18 @@ impl<T: Real> Scene<T> {
         for e in effects.iter_mut() {
             e.attach(&setup)?;
         }
+        // One elasticity and one bending a capsule: two would add their forces silently.
+        for c in 0..self.capsules.len() {
+            for (name, allowed) in [
+                ("elasticity", "one Elasticity a capsule (Elasticity::only gives capsules different laws)"),
+                ("bending", "one Bending a capsule (Bending::only gives capsules different moduli)"),
+            ] {
+                if effects.iter().filter(|e| e.name() == name && e.acts_on(c)).count() > 1 {
+                    return Err(Error::invalid(name, format!("two {name} effects on capsule {c}"), allowed));
+                }
+            }
+        }
+        effects_dt_limit(&effects, &setup)?;
         let dim = if self.grid.is_2d() { 2 } else { 3 };
         for (c, s) in self.capsules.iter().enumerate() {
             if s.dimension() != dim {

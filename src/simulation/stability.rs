@@ -39,13 +39,14 @@
 //! runs on coarse grids (the elastic energy of a tank-treading capsule grows steadily when the
 //! capsule radius is 3–4 cells, and the run eventually fails whatever `dt`): refine the grid.
 //!
-//! A step whose `dt` exceeds [`Simulation::membrane_dt_limit`] is taken, and its
+//! A step whose `dt` exceeds [`Simulation::membrane_dt_limit`] (the smallest limit of the
+//! scene's effects: these rules, and a user effect's own [`Effect::dt_limit`]) is taken, and its
 //! [`StepReport`](super::StepReport) carries a
 //! [`StepWarning::DtAboveLimit`](super::StepWarning::DtAboveLimit) (the library never prints).
 
-use super::{BendingCoupling, Effect, MembraneCoupling, Simulation};
+use super::{BendingCoupling, Effect, MembraneCoupling, Setup, Simulation};
 use crate::error::positive;
-use crate::{Real, Result};
+use crate::{Error, Real, Result};
 
 /// `C` of the explicit in-plane rule `dt <= C mu h / K` (measured limits 18.2–23.6).
 pub const C_EXPLICIT: f64 = 15.0;
@@ -92,14 +93,45 @@ pub fn bending_dt_limit(mu: f64, h: f64, eb: f64, coupling: BendingCoupling) -> 
 
 impl<T: Real> Simulation<T> {
     /// The time-step limit of this simulation: the smallest [`Effect::dt_limit`] of its
-    /// effects ([`membrane_dt_limit`] for [`Elasticity`](super::Elasticity),
-    /// [`bending_dt_limit`] for [`Bending`](super::Bending), with the mean of the two
-    /// viscosities and the smallest spacing); infinite without a limiting effect. A step above
-    /// it carries [`StepWarning::DtAboveLimit`](super::StepWarning::DtAboveLimit) in its report.
+    /// effects, the paper's membrane effects and a user's own alike ([`membrane_dt_limit`] for
+    /// [`Elasticity`](super::Elasticity), [`bending_dt_limit`] for [`Bending`](super::Bending),
+    /// with the mean of the two viscosities and the smallest spacing); infinite without a
+    /// limiting effect. A step above it carries
+    /// [`StepWarning::DtAboveLimit`](super::StepWarning::DtAboveLimit) in its report.
+    ///
+    /// A limit that is not finite and `> 0` is left out here: [`Scene::build`](super::Scene::build)
+    /// and every step refuse it with an error naming the effect.
     pub fn membrane_dt_limit(&self) -> f64 {
         let setup = self.setup();
-        self.effects.iter().filter_map(|e| e.dt_limit(&setup)).fold(f64::INFINITY, f64::min)
+        self.effects
+            .iter()
+            .filter_map(|e| e.dt_limit(&setup))
+            .filter(|l| l.is_finite() && *l > 0.0)
+            .fold(f64::INFINITY, f64::min)
     }
+
+    /// [`membrane_dt_limit`](Self::membrane_dt_limit), refusing an effect's invalid limit (see
+    /// [`effects_dt_limit`]).
+    pub(crate) fn checked_dt_limit(&self) -> Result<f64> {
+        effects_dt_limit(&self.effects, &self.setup())
+    }
+}
+
+/// The smallest [`Effect::dt_limit`] of `effects` in `setup` (infinite without one).
+///
+/// # Errors
+/// [`Error::InvalidParameter`] naming `dt_limit` and the effect, for a limit that is not finite
+/// and `> 0`.
+pub(crate) fn effects_dt_limit<T: Real>(effects: &[Box<dyn Effect<T>>], setup: &Setup<'_, T>) -> Result<f64> {
+    effects.iter().try_fold(f64::INFINITY, |m, e| match e.dt_limit(setup) {
+        None => Ok(m),
+        Some(l) if l.is_finite() && l > 0.0 => Ok(m.min(l)),
+        Some(l) => Err(Error::invalid(
+            "dt_limit",
+            format!("{l} from the effect `{}`", e.name()),
+            "a finite step > 0 from Effect::dt_limit (None for no limit)",
+        )),
+    })
 }
 
 #[cfg(test)]

@@ -9,7 +9,8 @@
 //!   ([`FlowStepper::cfl`](crate::fluid::FlowStepper::cfl)`(1)`) and `cfl` the target Courant
 //!   number (default [`AdaptiveDt::DEFAULT_CFL`]);
 //! - `safety` times the effects' limits ([`Simulation::membrane_dt_limit`]: the in-plane and
-//!   bending rules of [`stability`](super::stability));
+//!   bending rules of [`stability`](super::stability), and a user effect's own
+//!   [`Effect::dt_limit`](super::Effect::dt_limit));
 //! - `growth` times the last step (so that `dt` recovers gradually after a cut);
 //! - the time left to `until` (the run lands on it).
 //!
@@ -123,6 +124,25 @@ impl AdaptiveDt {
     /// a margin), growth 1.2 per step, 8 retries, smallest step `max_dt / 1e4`, a velocity
     /// growth warning at a factor 2.
     ///
+    /// # Choosing
+    /// The defaults are the validated ones: the capsule cases (`examples/capsule_in_shear.rs`,
+    /// `cases/examples/shear_capsule.rs`) run `AdaptiveDt::new(0.05)` with the Courant target
+    /// 0.3 and nothing else changed. `max_dt` only caps the step: the Courant target and the
+    /// effects' limits ([`Simulation::membrane_dt_limit`]) set it below the cap (in
+    /// `capsule_in_shear` the walls' speed does: `0.3 h / max|v|` = 0.0125); lower the cap
+    /// where the output needs a finer time resolution. Lower the Courant target
+    /// (e.g. 0.15) for a convergence check; raise it no further than about 0.5, where the
+    /// capsule cases stop being stable (`docs/stability.md`).
+    ///
+    /// ```
+    /// use eulermembrane::simulation::AdaptiveDt;
+    ///
+    /// let stepping = AdaptiveDt::new(0.05)?; // the validated default: Courant target 0.3
+    /// let careful = AdaptiveDt::new(0.05)?.cfl(0.15)?; // half the step, for a convergence check
+    /// # let _ = (stepping, careful);
+    /// # Ok::<(), eulermembrane::Error>(())
+    /// ```
+    ///
     /// # Errors
     /// [`Error::InvalidParameter`] naming `max_dt` unless it is finite and `> 0`.
     pub fn new(max_dt: f64) -> Result<Self> {
@@ -214,7 +234,12 @@ impl AdaptiveDt {
     /// The step the rule proposes now for `sim` (before any rejection), at most the time left
     /// to `until`.
     pub fn propose<T: Real>(&self, sim: &Simulation<T>, until: T) -> f64 {
-        let mut dt = self.max_dt.min(self.safety * sim.membrane_dt_limit());
+        self.propose_within(sim, until, sim.membrane_dt_limit())
+    }
+
+    /// [`propose`](Self::propose) with the effects' limit `limit`.
+    fn propose_within<T: Real>(&self, sim: &Simulation<T>, until: T, limit: f64) -> f64 {
+        let mut dt = self.max_dt.min(self.safety * limit);
         let rate = sim.flow().cfl(T::one());
         if rate > 0.0 {
             dt = dt.min(self.cfl / rate);
@@ -271,7 +296,8 @@ impl<T: Real> TimeStepping<T> for AdaptiveDt {
         if left <= 1e-12 * self.max_dt {
             return Ok(None);
         }
-        let mut dt = self.propose(sim, until);
+        // An effect's invalid limit is refused here, naming the effect (not as a step of 0).
+        let mut dt = self.propose_within(sim, until, sim.checked_dt_limit()?);
         let mut retries = 0;
         loop {
             let outcome = sim.prepare(T::lit(dt));
@@ -314,7 +340,8 @@ impl<T: Real> TimeStepping<T> for AdaptiveDt {
         let mut report = sim.commit()?;
         report.retries = retries;
         let growth = self.record(&report);
-        if growth > self.velocity_growth {
+        // One warning a report: the step's own (Courant number, effects' limit) comes first.
+        if growth > self.velocity_growth && report.warning.is_none() {
             report.warning = Some(StepWarning::VelocityGrowth { factor: growth, steps: self.recent.len() });
         }
         Ok(Some(report))
