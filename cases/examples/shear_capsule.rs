@@ -5,7 +5,8 @@
 //! Prints progress (D, angle, area, predictor iterations, dt, the step's Courant number, the
 //! retried steps since the last line and the last `StepWarning`, e.g. a sudden growth of
 //! `max|v|`); writes into `--out` the history `history.csv` (t, D, angle, area, volume
-//! drift, predictor iterations, dt; written as the run goes, so a failed run leaves it), the plot
+//! drift, predictor iterations, dt, the membrane's stored energy `E` and the work `W` the fluid
+//! has done on it; written as the run goes, so a failed run leaves it), the plot
 //! `deformation.svg` of `D(t)` with the reference curves (like Fig. 10, or Fig. 11 with bending),
 //! ParaView snapshots (`shear.pvd`); ends with `RESULT ca=... n=... eb_prime=...
 //! max_curve_err=... d_steady=... angle_deg=... d_ref=... rel_err=... steps=... wall_s=...
@@ -16,7 +17,10 @@
 //! the published late-time value (NaN where there is none); `t_end` the time reached,
 //! `s0_ratio` the membrane's reference area at the end over its initial value; `late_change`
 //! the mean `D` over the last time unit against that over `t` in `[6, 7]` (runs to `t` >= 8;
-//! NaN otherwise); `coupling`, `law` and `box` say how it ran.
+//! NaN otherwise); `energy_leak` the energy identity over the last time unit,
+//! `(Delta W - Delta E) / (Delta t mean E)`: the work received less the energy stored, per unit
+//! time and stored energy (0 for a coupling that conserves energy; > 0 lost, < 0 created);
+//! `coupling`, `law` and `box` say how it ran.
 //!
 //! Steps: adaptive by default (`simulation::AdaptiveDt`: Courant target `--cfl`, the membrane
 //! and bending limits, at most `--max-dt`); `--dt DT` takes fixed steps of `DT` instead (the
@@ -269,6 +273,7 @@ fn report(
         ("t_end", format!("{:.4}", o.t_end)),
         ("s0_ratio", num(o.s0_ratio)),
         ("late_change", num(late_change(o))),
+        ("energy_leak", num(o.energy_leak)),
         ("coupling", coupling.name().to_string()),
         ("law", case.law.name().to_string()),
         ("box", case.box_radii.map(|l| l.to_string()).join(",")),

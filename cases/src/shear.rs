@@ -11,8 +11,8 @@
 
 use crate::csv::CsvWriter;
 use eulermembrane::Real;
-use eulermembrane::diagnostics::{ellipsoid_fit, taylor_deformation};
-use eulermembrane::grid::{Boundary, Grid};
+use eulermembrane::diagnostics::{body_force_power, ellipsoid_fit, taylor_deformation};
+use eulermembrane::grid::{Boundary, Grid, VectorField};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{NeoHookean, TensionField};
@@ -136,6 +136,14 @@ pub struct ShearSample {
     pub d_ellipsoid: f64,
     /// Inclination of that ellipsoid's longest axis in the x-z plane, from x towards z, degrees.
     pub angle_ellipsoid_deg: f64,
+    /// The membrane's stored energy `E` ([`Simulation::elastic_energy`]).
+    pub elastic_energy: f64,
+    /// The work `W` the fluid has done on the membrane since `t` = 0: the power
+    /// `P = -sum v . F dV` of the membrane force `F` on the fluid ([`Simulation::membrane_force`],
+    /// [`body_force_power`]) integrated over the samples by the trapezoid rule. Without losses
+    /// `E(t) - E(0) = W(t)`: the energy identity of the coupling (the membrane takes from the
+    /// fluid the power that its traction does on it).
+    pub membrane_work: f64,
 }
 
 /// What a run measured.
@@ -164,6 +172,11 @@ pub struct ShearOutcome {
     /// The membrane's reference area `s_0` (`Simulation::reference_area`) at the end over its
     /// initial value.
     pub s0_ratio: f64,
+    /// The energy the coupling loses over the last time unit, relative:
+    /// `(Delta W - Delta E) / (Delta t mean E)`, the work received less the energy stored,
+    /// per unit time and per unit of stored energy (positive: energy lost, as a dissipative
+    /// scheme would; negative: energy created). NaN without a stored energy.
+    pub energy_leak: f64,
 }
 
 impl ShearOutcome {
@@ -243,7 +256,17 @@ pub fn run<T: Real>(
     let mut history = match out {
         Some((dir, _)) => Some(CsvWriter::create(
             dir.join("history.csv"),
-            &["t", "d", "angle_deg", "area_ratio", "volume_drift", "iterations", "dt"],
+            &[
+                "t",
+                "d",
+                "angle_deg",
+                "area_ratio",
+                "volume_drift",
+                "iterations",
+                "dt",
+                "elastic_energy",
+                "membrane_work",
+            ],
         )?),
         None => None,
     };
@@ -270,6 +293,10 @@ pub fn run<T: Real>(
     let clock = Instant::now();
     let cpu0 = super::cpu_seconds();
     let (mut iterations, mut dt, mut s) = (0, 0.0, 0usize);
+    // The membrane force for the energy identity (allocated once), the last sample's power and
+    // time, and the work integrated so far.
+    let mut force = VectorField::zeros(sim.grid());
+    let (mut power, mut t_power, mut work) = (0.0, 0.0, 0.0);
     // The last step's Courant number, and the retries and warnings since the last progress line.
     let (mut courant, mut retries, mut warned) = (0.0, 0usize, None);
     loop {
@@ -291,6 +318,13 @@ pub fn run<T: Real>(
             let centre = sim.centroid(0)?;
             let td = taylor_deformation(sim.grid(), sim.phi(0)?, centre, 1)?;
             let ef = ellipsoid_fit(sim.grid(), sim.phi(0)?)?;
+            force.c.iter_mut().for_each(|c| c.fill(T::zero()));
+            sim.membrane_force(T::lit(if dt > 0.0 { dt } else { case.dt }), &mut force)?;
+            let p = -body_force_power(sim.grid(), sim.flow().velocity(), &force)?;
+            if s > 0 {
+                work += 0.5 * (power + p) * (t - t_power);
+            }
+            (power, t_power) = (p, t);
             let sample = ShearSample {
                 t,
                 d: td.deformation,
@@ -302,9 +336,21 @@ pub fn run<T: Real>(
                 d_ellipsoid: ef.deformation(),
                 // NaN where the longest axis is not in the x-z plane (the sphere at t = 0).
                 angle_ellipsoid_deg: ef.inclination_deg(1).unwrap_or(f64::NAN),
+                elastic_energy: sim.elastic_energy(),
+                membrane_work: work,
             };
             if let Some(h) = history.as_mut() {
-                h.row(&[t, sample.d, sample.angle_deg, sample.area_ratio, drift, iterations as f64, dt])?;
+                h.row(&[
+                    t,
+                    sample.d,
+                    sample.angle_deg,
+                    sample.area_ratio,
+                    drift,
+                    iterations as f64,
+                    dt,
+                    sample.elastic_energy,
+                    work,
+                ])?;
             }
             samples.push(sample);
         }
@@ -365,7 +411,16 @@ pub fn run<T: Real>(
     let t_end = sim.time().f64();
     let last: Vec<&ShearSample> = samples.iter().filter(|s| s.t >= t_end - 1.0 - 1e-9).collect();
     let mean = |f: fn(&ShearSample) -> f64| last.iter().map(|s| f(s)).sum::<f64>() / last.len() as f64;
+    let energy_leak = match (last.first(), last.last()) {
+        (Some(a), Some(b)) if b.t > a.t => {
+            let (de, dw) = (b.elastic_energy - a.elastic_energy, b.membrane_work - a.membrane_work);
+            let e = mean(|s| s.elastic_energy);
+            if e > 0.0 { (dw - de) / ((b.t - a.t) * e) } else { f64::NAN }
+        }
+        _ => f64::NAN,
+    };
     Ok(ShearOutcome {
+        energy_leak,
         d_steady: mean(|s| s.d),
         angle_steady: mean(|s| s.angle_deg),
         d_ellipsoid_steady: mean(|s| s.d_ellipsoid),
