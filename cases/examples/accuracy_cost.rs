@@ -489,7 +489,7 @@ fn measure_shear<T: Real>(job: &ShearJob, reference: &[(f64, f64)]) -> Measured 
         box_radii: ShearCase::PAPER_BOX,
         law: Default::default(),
     };
-    let o = match shear::run::<T>(&case, job.settings::<T>(), 0.05, None, true) {
+    let o = match shear::run::<T>(&case, job.settings::<T>(), 0.05, None, true, shear::Energy::Skip) {
         Ok(o) => o,
         Err(e) => return failed(e.to_string()),
     };

@@ -57,7 +57,7 @@
 
 use eulermembrane_cases as common;
 
-use common::shear::{self, ShearCase, ShearLaw, ShearOutcome, Steps};
+use common::shear::{self, Energy, ShearCase, ShearLaw, ShearOutcome, Steps};
 use common::{Args, BoxResult, num, reference_dir, result};
 use eulermembrane::fluid::ViscousScheme;
 use eulermembrane::membrane::BendingForm;
@@ -206,9 +206,9 @@ impl Numerics {
 /// Runs one case in the precision the flags ask for.
 fn simulate(numerics: &Numerics, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
     if numerics.f32 {
-        shear::run::<f32>(case, numerics.settings(), 0.05, vtk, false)
+        shear::run::<f32>(case, numerics.settings(), 0.05, vtk, false, Energy::Identity)
     } else {
-        shear::run::<f64>(case, numerics.settings(), 0.05, vtk, false)
+        shear::run::<f64>(case, numerics.settings(), 0.05, vtk, false, Energy::Identity)
     }
 }
 
