@@ -80,7 +80,7 @@ fn parse(args: &Args) -> Result<Opts, String> {
         quadrature,
         beta: args.get("beta", 1.0),
         cfl,
-        tiny: args.get("tiny", eulermembrane::interface::advect::default_tiny()),
+        tiny: args.get("tiny", eulermembrane::interface::advect::AdvectionParams::<f64>::default().tiny),
         out: args.out_dir("single_vortex"),
         plots: !args.flag("no-plots"),
     })

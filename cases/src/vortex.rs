@@ -119,7 +119,7 @@ pub fn run<T: Real>(
     let steps = (t_end * umax / (case.cfl * h)).ceil() as usize;
     let dt = t_end / steps as f64;
 
-    let tiny = case.tiny.map_or_else(eulermembrane::interface::advect::default_tiny::<T>, T::lit);
+    let tiny = case.tiny.map_or_else(|| AdvectionParams::<T>::default().tiny, T::lit);
     let params =
         AdvectionParams { beta: T::lit(case.beta), normals: case.normals, quadrature: case.quadrature, tiny };
     let mut adv = Advector::new(&g, params, Carried::PhiAndCurvature)?;

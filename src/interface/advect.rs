@@ -73,7 +73,7 @@ impl<T: Real> Default for AdvectionParams<T> {
 }
 
 /// Default uniform-cell threshold: `max(1e-6, 1000 eps)`.
-pub fn default_tiny<T: Real>() -> T {
+pub(crate) fn default_tiny<T: Real>() -> T {
     T::lit(1e-6).max(T::lit(1000.0) * T::eps())
 }
 

@@ -185,12 +185,12 @@ impl<T: Real> PhiRange<T> {
 /// Clamp of `phi` before the inverse-tanh transform: `phi` is kept in `[e, 1 - e]` with
 /// `e = max(1e-12, 100 eps)` (`|psi| <= 13.8` in f64, `<= 5.7` in f32).
 #[inline(always)]
-pub fn psi_clamp<T: Real>() -> T {
+pub(crate) fn psi_clamp<T: Real>() -> T {
     T::lit(1e-12).max(T::lit(100.0) * T::eps())
 }
 
 /// The inverse-tanh transform `psi = atanh(2 phi - 1) = ln(phi / (1 - phi)) / 2` of a cell
-/// value, with `phi` clamped to `[e, 1 - e]` ([`psi_clamp`]); finite for every finite input.
+/// value, with `phi` clamped to `[e, 1 - e]` (`e = max(1e-12, 100 eps)`); finite for every finite input.
 /// For the MTHINC profile `phi = (1 + tanh(beta s / h)) / 2`, `psi = beta s / h`.
 #[inline(always)]
 pub fn psi_of<T: Real>(phi: T) -> T {

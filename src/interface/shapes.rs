@@ -923,7 +923,7 @@ impl<F: Fn([f64; 3]) -> f64 + Sync> Shape for SignedDistanceFn<F> {
 }
 
 /// Gauss-Legendre nodes and weights on `[-1/2, 1/2]` (weights sum to 1).
-pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     let mut x = vec![0.0; n];
     let mut w = vec![0.0; n];
     for i in 0..n {

@@ -57,7 +57,7 @@ pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
 pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};
 pub use strain::{
     StrainAdvection, StrainTransport, advective_tendency, advective_tendency_in_frame, fill_projector,
-    reset_outside_band, upwind3_face, upwind5_face,
+    reset_outside_band,
 };
 pub use stress::{
     Jacobian, SurfaceKinematics, TensionInvariants, energy_density, h_tensor, jacobian, principal_tensions,

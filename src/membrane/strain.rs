@@ -93,7 +93,7 @@ const NONE: u32 = u32::MAX;
 /// Third-order upwind value on the face between `b` and `c` of the window `a | b | c | d`:
 /// `(−a + 5b + 2c)/6` if `u ≥ 0`, else `(2b + 5c − d)/6`.
 #[inline(always)]
-pub fn upwind3_face<T: Real>(u: T, a: T, b: T, c: T, d: T) -> T {
+pub(crate) fn upwind3_face<T: Real>(u: T, a: T, b: T, c: T, d: T) -> T {
     let sixth = T::lit(1.0 / 6.0);
     let five = T::lit(5.0);
     let two = T::lit(2.0);
@@ -104,7 +104,7 @@ pub fn upwind3_face<T: Real>(u: T, a: T, b: T, c: T, d: T) -> T {
 /// `(2a − 13b + 47c + 27d − 3e)/60` if `u ≥ 0`, else `(2f − 13e + 47d + 27c − 3b)/60`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub fn upwind5_face<T: Real>(u: T, a: T, b: T, c: T, d: T, e: T, f: T) -> T {
+pub(crate) fn upwind5_face<T: Real>(u: T, a: T, b: T, c: T, d: T, e: T, f: T) -> T {
     let k = T::lit(1.0 / 60.0);
     let (w0, w1, w2, w3, w4) = (T::lit(2.0), T::lit(13.0), T::lit(47.0), T::lit(27.0), T::lit(3.0));
     if u >= T::zero() {

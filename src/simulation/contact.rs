@@ -24,7 +24,7 @@
 //! is, at every point of the film between them, the local gap between the two surfaces (exactly
 //! along the line joining their closest points, and larger elsewhere): its minimum is the gap.
 //! `s` is read only where both `phi` lie in `(tiny, 1 - tiny)`, `tiny` =
-//! [`default_tiny`] (the cells that MTHINC reconstructs with a profile), so up to
+//! `max(1e-6, 1000 eps)`, the default [`AdvectionParams::tiny`](crate::interface::AdvectionParams::tiny) (the cells that MTHINC reconstructs with a profile), so up to
 //! `psi_max h / beta` from each surface, `psi_max = atanh(1 - 2 tiny)`: 6.9 cells at `beta = 1`
 //! in `f64`, 4.5 in `f32`.
 //!
