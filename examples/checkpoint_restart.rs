@@ -24,7 +24,7 @@
 //!   the sheared flow around it. The membrane's principal tensions are the fields `t1`, `t2`.
 //!
 //! A checkpoint is restored only into a scene with the same physics: the phases, the traction
-//! (`Settings::traction`) and every effect's `describe()` line must match
+//! (`Elasticity::traction`, `Simulation::traction`) and every effect's `describe()` line must match
 //! (`Simulation::physics`), or `restore` returns an error naming `checkpoint physics` that
 //! shows both lines. The grid must match too. The numerical solvers may differ.
 //!

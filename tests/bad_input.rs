@@ -823,11 +823,9 @@ fn a_checkpoint_of_another_traction_is_refused_showing_both_physics() {
     sim.step(1e-3).unwrap();
     let bytes = checkpoint_bytes(&sim, &path);
     let sharp = || {
-        let s = Settings { traction: Traction::Sharp, ..Settings::default() };
         Scene::new(Grid::periodic([12; 3], [0.0; 3], [1.0; 3]).unwrap(), fluid())
             .capsule(Sphere::new([0.5; 3], 0.3).unwrap())
-            .elasticity(NeoHookean::new(1.0).unwrap())
-            .settings(s)
+            .effect(Elasticity::new(NeoHookean::new(1.0).unwrap()).traction(Traction::Sharp))
             .build()
             .unwrap()
     };

@@ -7,19 +7,19 @@ use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::NeoHookean;
 use eulermembrane::simulation::{
-    AdaptiveDt, CapsuleStorage, Contact, Phase, Scene, Settings, Simulation, SurfaceLoad, Traction,
-    min_gap_cells,
+    AdaptiveDt, CapsuleStorage, Contact, Elasticity, Phase, Scene, Settings, Simulation, SurfaceLoad,
+    Traction, min_gap_cells,
 };
 
 /// A neo-Hookean sphere of radius 0.25 (4 cells) carried along x across the periodic seam by a
 /// uniform flow with a shear wave on it, on the whole grid or on a box.
 fn carried(storage: CapsuleStorage, traction: Traction) -> Simulation<f64> {
     let grid = Grid::periodic([48, 16, 16], [0.0; 3], [3.0, 1.0, 1.0]).unwrap();
-    let settings = Settings { storage, traction, ..Settings::default() };
+    let settings = Settings { storage, ..Settings::default() };
     let mut sim = Scene::new(grid, Phase::new(1.0, 1.0).unwrap())
         .inside(Phase::new(1.0, 2.0).unwrap())
         .capsule(Sphere::new([2.6, 0.5, 0.5], 0.25).unwrap())
-        .elasticity(NeoHookean::new(0.5).unwrap())
+        .effect(Elasticity::new(NeoHookean::new(0.5).unwrap()).traction(traction))
         .settings(settings)
         .build()
         .unwrap();

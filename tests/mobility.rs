@@ -11,7 +11,7 @@ use eulermembrane::diagnostics::{
 };
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::simulation::{Phase, Scene, Settings, Traction};
+use eulermembrane::simulation::{Phase, Scene, SurfaceLoad, Traction};
 
 const MU: f64 = 100.0;
 const STOKES: StokesL2 = StokesL2::EQUAL_VISCOSITIES;
@@ -27,8 +27,7 @@ fn response_in(traction: Traction, lambda: f64, n: usize, force: fn([f64; 3]) ->
     let mut sim = Scene::new(grid, Phase::new(1.0, MU).unwrap())
         .inside(Phase::new(1.0, lambda * MU).unwrap())
         .capsule(Sphere::new([0.0; 3], 1.0).unwrap())
-        .surface_force(move |x, _| force(x))
-        .settings(Settings { traction, ..Settings::default() })
+        .effect(SurfaceLoad::new(move |x, _| force(x)).traction(traction))
         .build()
         .unwrap();
     let h = 8.0 / n as f64;

@@ -8,7 +8,10 @@ use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::NormalScheme;
 use eulermembrane::interface::shapes::{Circle, Sphere};
 use eulermembrane::membrane::{BendingForm, NeoHookean, Skalak};
-use eulermembrane::simulation::{GsTransport, Phase, ReferenceArea, Scene, Settings, Simulation, Traction};
+use eulermembrane::simulation::{
+    Bending, Elasticity, GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings, Simulation,
+    SurfaceLoad, Traction,
+};
 use eulermembrane::tensor::{dot, sym_mul_vec};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -163,9 +166,9 @@ fn bad_scenes_are_refused() {
     let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(-1.0).build();
     assert!(matches!(e, Err(Error::InvalidParameter { name: "eb", .. })));
     // The energy-gradient bending force with normals it cannot differentiate.
-    let energy = Settings { bending_form: BendingForm::EnergyGradient, ..Settings::default() };
-    let settings = Settings { normals: NormalScheme::Youngs, ..energy };
-    let e = Scene::new(box16(), fluid()).capsule(sphere()).bending(1e-3).settings(settings).build();
+    let energy = Bending::new(1e-3).unwrap().form(BendingForm::EnergyGradient);
+    let settings = Settings { normals: NormalScheme::Youngs, ..Settings::default() };
+    let e = Scene::new(box16(), fluid()).capsule(sphere()).effect(energy).settings(settings).build();
     assert!(matches!(e, Err(Error::InvalidParameter { name: "normals", .. })));
     assert!(matches!(
         BendingForm::from_name("pozrikidis"),
@@ -174,13 +177,42 @@ fn bad_scenes_are_refused() {
     // The sharp coupling's quasi-implicit term with the SOR predictor, which applies the
     // operator face by face.
     let sor = FlowConfig { predictor: PredictorSolver::Sor(SorParams::default()), ..FlowConfig::default() };
-    let settings = Settings { traction: Traction::Sharp, flow: sor, ..Settings::default() };
+    let settings = Settings { flow: sor, ..Settings::default() };
+    let sharp = || Elasticity::new(NeoHookean::new(1.0).unwrap()).traction(Traction::Sharp);
+    let e = Scene::new(box16(), fluid()).capsule(sphere()).effect(sharp()).settings(settings).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "traction", .. })));
+    // The explicit coupling has no implicit term: SOR takes it.
+    let explicit = sharp().coupling(MembraneCoupling::Explicit);
+    Scene::new(box16(), fluid()).capsule(sphere()).effect(explicit).settings(settings).build().unwrap();
+    // Two effects that ask one capsule for different tractions; a load that asks for none
+    // takes the elasticity's.
+    let load = || SurfaceLoad::new(|_, _| [0.0; 3]);
     let e = Scene::new(box16(), fluid())
         .capsule(sphere())
-        .elasticity(NeoHookean::new(1.0).unwrap())
-        .settings(settings)
+        .effect(sharp())
+        .effect(load().traction(Traction::Smoothed))
         .build();
-    assert!(matches!(e, Err(Error::InvalidParameter { name: "traction", .. })));
+    match e {
+        Err(Error::InvalidParameter { name: "traction", value, .. }) => {
+            assert!(value.contains("capsule 0") && value.contains("surface_force"), "{value}")
+        }
+        other => panic!("{:?}", other.err()),
+    }
+    let sim = Scene::new(box16(), fluid()).capsule(sphere()).effect(sharp()).effect(load()).build().unwrap();
+    assert_eq!(sim.traction(0).unwrap(), Traction::Sharp);
+    // Capsules of different tractions: the physics checkpoints record names each.
+    let two = Scene::new(box16(), fluid())
+        .capsule(Sphere::new([0.25, 0.5, 0.5], 0.15).unwrap())
+        .capsule(Sphere::new([0.75, 0.5, 0.5], 0.15).unwrap())
+        .effect(sharp().only([0]))
+        .effect(Elasticity::new(NeoHookean::new(1.0).unwrap()).only([1]))
+        .build()
+        .unwrap();
+    assert!(two.physics().contains("; traction=sharp,smoothed;"), "{}", two.physics());
+    // Two elasticities on one capsule, of different tractions or not.
+    let smooth = Elasticity::new(NeoHookean::new(1.0).unwrap());
+    let e = Scene::new(box16(), fluid()).capsule(sphere()).effect(sharp()).effect(smooth).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "elasticity", .. })));
     assert!(matches!(Traction::from_name("sharpest"), Err(Error::InvalidParameter { name: "traction", .. })));
     // epsilon outside (0, 1).
     for eps in [0.0, 1.0, -0.1, f64::NAN] {
@@ -249,8 +281,7 @@ fn membrane_force_of_a_prestretched_capsule(traction: Traction) {
     let (r, stretch) = (0.3, 1.05);
     let mut sim = Scene::new(box16(), fluid())
         .capsule(Sphere::new([0.5; 3], r).unwrap())
-        .elasticity(NeoHookean::new(1.0).unwrap())
-        .settings(Settings { traction, ..Settings::default() })
+        .effect(Elasticity::new(NeoHookean::new(1.0).unwrap()).traction(traction))
         .build()
         .unwrap();
     sim.prestretch(0, stretch).unwrap();
@@ -456,14 +487,14 @@ fn conserve_reference_area_keeps_the_membranes_reference_area() {
 /// radius), through the load and the release to `t = 0.7`. Returns the energy error
 /// `max_t |E_total(t) - E_total(0)|` over the peak elastic energy, the largest `|G_s n|` on the
 /// band at the end and the relative volume drift.
-fn squashed_sphere_n32(settings: Settings<f64>) -> (f64, f64, f64) {
+fn squashed_sphere_n32(settings: Settings<f64>, traction: Traction) -> (f64, f64, f64) {
     let n = 32;
     let mut bc = [[Boundary::Periodic; 2]; 3];
     bc[2] = [Boundary::wall(), Boundary::wall()];
     let grid = Grid::new([n, n, n / 2], [0.0; 3], [1.0, 1.0, 0.5], bc).unwrap();
     let mut sim = Scene::new(grid, Phase::new(1.0, 0.2).unwrap())
         .capsule(Sphere::new([0.5, 0.5, 0.25], 0.1).unwrap())
-        .elasticity(NeoHookean::new(5.0).unwrap())
+        .effect(Elasticity::new(NeoHookean::new(5.0).unwrap()).traction(traction))
         .surface_force(|x, t| {
             // sgn(0) = 0: the z-faces on the equator carry no load (`f64::signum(0.0)` is 1).
             let s = x[2] - 0.25;
@@ -500,7 +531,7 @@ fn squashed_sphere_n32(settings: Settings<f64>) -> (f64, f64, f64) {
 /// for the tests that compare against it: energy error 2.31e-2 of the peak elastic energy.
 fn squashed_sphere_n32_default() -> (f64, f64, f64) {
     static DEFAULT: OnceLock<(f64, f64, f64)> = OnceLock::new();
-    *DEFAULT.get_or_init(|| squashed_sphere_n32(Settings::default()))
+    *DEFAULT.get_or_init(|| squashed_sphere_n32(Settings::default(), Traction::Smoothed))
 }
 
 /// The paper's transport on the squashed sphere at N = 32 (3.2 cells per radius): the energy
@@ -520,8 +551,10 @@ fn squashed_sphere_default_energy_error() {
 /// at N = 64 it does (4.50e-3 against 1.21e-2, `docs/validation/squashed_sphere.md`).
 #[test]
 fn tangential_gs_keeps_g_s_tangential() {
-    let (err_t, gn_t, vol_t) =
-        squashed_sphere_n32(Settings { gs_transport: GsTransport::Tangential, ..Settings::default() });
+    let (err_t, gn_t, vol_t) = squashed_sphere_n32(
+        Settings { gs_transport: GsTransport::Tangential, ..Settings::default() },
+        Traction::Smoothed,
+    );
     let (_, gn_p, vol_p) = squashed_sphere_n32_default();
     assert!(gn_t < 1e-12, "|G_s n| = {gn_t} with the projection");
     assert!(gn_p > 1e-2, "|G_s n| = {gn_p} without it");
@@ -536,8 +569,10 @@ fn tangential_gs_keeps_g_s_tangential() {
 /// round-off on the band): the normal part has other sources as well.
 #[test]
 fn tangent_frame_transport_lowers_the_energy_error() {
-    let (err, gn, vol) =
-        squashed_sphere_n32(Settings { gs_transport: GsTransport::TangentFrame, ..Settings::default() });
+    let (err, gn, vol) = squashed_sphere_n32(
+        Settings { gs_transport: GsTransport::TangentFrame, ..Settings::default() },
+        Traction::Smoothed,
+    );
     let (err_p, _, _) = squashed_sphere_n32_default();
     assert!(err < 0.6 * err_p, "energy error {err} in the tangent frame, {err_p} without");
     assert!(gn > 1e-2, "|G_s n| = {gn}");
@@ -550,7 +585,7 @@ fn tangent_frame_transport_lowers_the_energy_error() {
 #[test]
 fn both_transport_options_lower_the_energy_error() {
     let both = Settings { gs_transport: GsTransport::TangentFrameTangential, ..Settings::default() };
-    let (err, gn, vol) = squashed_sphere_n32(both);
+    let (err, gn, vol) = squashed_sphere_n32(both, Traction::Smoothed);
     let (err_p, _, _) = squashed_sphere_n32_default();
     assert!(err < 0.7 * err_p, "energy error {err} with both options, {err_p} without");
     assert!(gn < 1e-12, "|G_s n| = {gn}");
@@ -564,7 +599,7 @@ fn both_transport_options_lower_the_energy_error() {
 /// tangential and the volume is kept to round-off (`phi` is carried by the fluid velocity).
 #[test]
 fn sharp_traction_keeps_the_energy_budget_and_the_volume() {
-    let (err, gn, vol) = squashed_sphere_n32(Settings { traction: Traction::Sharp, ..Settings::default() });
+    let (err, gn, vol) = squashed_sphere_n32(Settings::default(), Traction::Sharp);
     assert!(err < 0.035, "energy error {err}");
     assert!(gn < 1e-12, "|G_s n| = {gn}");
     assert!(vol < 1e-10, "volume drift {vol}");

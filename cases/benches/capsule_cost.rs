@@ -12,7 +12,7 @@ mod common;
 
 use common::CpuTime;
 use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
-use eulermembrane::simulation::{CapsuleStorage, Settings};
+use eulermembrane::simulation::{CapsuleStorage, Settings, Traction};
 use eulermembrane_cases::cost::{periodic_capsules, step};
 use std::time::Duration;
 
@@ -29,7 +29,8 @@ fn capsule_cost(c: &mut Criterion<CpuTime>) {
     let dt = step(CELLS_PER_RADIUS);
     for n in [64, 128] {
         for k in [0, 1, 4, 16] {
-            let mut sim = periodic_capsules(n, k, CELLS_PER_RADIUS, settings).expect("capsule scene");
+            let mut sim = periodic_capsules(n, k, CELLS_PER_RADIUS, settings, Traction::default())
+                .expect("capsule scene");
             for _ in 0..2 {
                 sim.step(dt).expect("step");
             }

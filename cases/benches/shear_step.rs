@@ -1,6 +1,6 @@
 //! One step of the shear capsule of Sec. 3.3 at 16 cells per radius (`N = 128`, a 128 x 64 x 128
-//! box, Ca = 0.05, default settings) with each membrane coupling (`Settings::traction`): the step
-//! `shear_capsule --n 128` takes about 1270 times (the sharp one; `--coupling smoothed` the other).
+//! box, Ca = 0.05, default settings) with each membrane traction (`Elasticity::traction`): the step
+//! `shear_capsule --n 128` takes about 1270 times (the sharp one; `--traction smoothed` the other).
 //! The capsule is first run to `t = 0.2` (43 steps of the adaptive step, so that the membrane
 //! is loaded and the solvers start from a developed flow); every measured step then has
 //! `dt = 0.0047`, the step the adaptive control chooses in that run.
@@ -14,6 +14,7 @@ mod common;
 use common::CpuTime;
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use eulermembrane::simulation::{AdaptiveDt, Settings, Traction};
+use eulermembrane_cases::Terms;
 use eulermembrane_cases::shear::{self, ShearCase, Steps};
 use std::time::Duration;
 
@@ -38,8 +39,8 @@ fn shear_step(c: &mut Criterion<CpuTime>) {
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(12));
     for traction in Traction::ALL {
-        let settings = Settings { traction, ..Settings::default() };
-        let mut sim = shear::build::<f64>(&case, settings).expect("shear scene");
+        let terms = Terms { traction, ..Terms::default() };
+        let mut sim = shear::build::<f64>(&case, Settings::default(), terms).expect("shear scene");
         let mut control = AdaptiveDt::new(case.dt).expect("adaptive dt");
         sim.run_with(case.t_end, &mut control, &mut []).expect("developed state");
         let dt = 0.0047;

@@ -17,7 +17,7 @@
 //! - `fast`: the capsule at N = 16 ... 96 (up to `--max-n`) with the cheap settings the other
 //!   studies found harmless: `dt = 0.512 / N` and Krylov tolerance 1e-3, with `beta = 1` and 2.
 //! - `coupling`: the capsule at N = 24, 32, 48, 64, 96, 128 (up to `--max-n`) with the paper's
-//!   smoothed membrane traction and the sharp one (`Settings::traction`), `dt = 0.256 / N`;
+//!   smoothed membrane traction and the sharp one (`Elasticity::traction`), `dt = 0.256 / N`;
 //!   besides the windowed error, `coupling_curve.svg` plots the largest `|D - D_BEM| / D_BEM`
 //!   over the reference curve's times in `[0.5, 3]` (the overshoot the window hides).
 //! - `quick`: the vortex at N = 32, 64 and the capsule at N = 24, 32 in f64 and at N = 24 in
@@ -46,7 +46,7 @@ use eulermembrane_cases as common;
 
 use common::shear::{self, ShearCase, Steps};
 use common::vortex::{self, VortexCase};
-use common::{Args, BoxResult, num, reference_dir, result};
+use common::{Args, BoxResult, Terms, num, reference_dir, result};
 use eulermembrane::Real;
 use eulermembrane::fluid::{KrylovParams, PredictorSolver, SorParams};
 use eulermembrane::interface::NormalScheme;
@@ -124,8 +124,11 @@ impl ShearJob {
             Solver::Sor(tolerance) => PredictorSolver::Sor(SorParams { tolerance, ..Default::default() }),
         };
         s.epsilon = T::lit(self.epsilon);
-        s.traction = self.traction;
         s.with_beta(T::lit(self.beta))
+    }
+
+    fn terms(&self) -> Terms {
+        Terms { traction: self.traction, ..Terms::default() }
     }
 
     fn describe(&self) -> String {
@@ -489,10 +492,12 @@ fn measure_shear<T: Real>(job: &ShearJob, reference: &[(f64, f64)]) -> Measured 
         box_radii: ShearCase::PAPER_BOX,
         law: Default::default(),
     };
-    let o = match shear::run::<T>(&case, job.settings::<T>(), 0.05, None, true, shear::Energy::Skip) {
-        Ok(o) => o,
-        Err(e) => return failed(e.to_string()),
-    };
+    let o =
+        match shear::run::<T>(&case, job.settings::<T>(), job.terms(), 0.05, None, true, shear::Energy::Skip)
+        {
+            Ok(o) => o,
+            Err(e) => return failed(e.to_string()),
+        };
     let w: Vec<_> = o.samples.iter().filter(|s| s.t >= WINDOW.0 - 1e-9 && s.t <= WINDOW.1 + 1e-9).collect();
     let mean = |f: &dyn Fn(&shear::ShearSample) -> f64| w.iter().map(|s| f(s)).sum::<f64>() / w.len() as f64;
     let d = mean(&|s| s.d);

@@ -16,7 +16,7 @@
 //!
 //! Prints one line per run; writes `cost.csv` into `--out`; ends with `RESULT n=... k=...
 //! step_s=... iters=... marginal_s=... per_capsule_s=... flow_s=... box_ratio=... k_spread=...
-//! storage=... coupling=...`: `step_s`, `iters` (mean predictor iterations) and `marginal_s`
+//! storage=... traction=...`: `step_s`, `iters` (mean predictor iterations) and `marginal_s`
 //! list the runs in the order of `--n` then `--k` (`marginal_s` against the previous `K >= 1`
 //! of the grid; NaN for the first); `per_capsule_s` and `flow_s` the least-squares `b` and `a`
 //! over `K >= 1` of each grid; `box_ratio` the largest over the smallest `b` of the grids;
@@ -24,7 +24,7 @@
 //!
 //! Flags: `--n` (`64,128`), `--k` (`0,1,4,16`), `--steps` (10), `--warm` (3), `--room` (1.2,
 //! `CapsuleStorage::Boxed { room }`; 0 keeps every capsule on the whole grid),
-//! `--cells-per-radius` (8), `--coupling sharp|smoothed` (`Settings::traction`, default the
+//! `--cells-per-radius` (8), `--traction sharp|smoothed` (`Elasticity::traction`, default the
 //! library's), `--out DIR` (`out/capsule_cost`).
 //!
 //! Run: `cargo run --release -p eulermembrane-cases --example capsule_cost` (a few minutes on
@@ -36,7 +36,7 @@ use eulermembrane_cases as common;
 use common::cost::{periodic_capsules, step};
 use common::csv::CsvWriter;
 use common::{Args, BoxResult, num, result};
-use eulermembrane::simulation::{CapsuleStorage, Settings};
+use eulermembrane::simulation::{CapsuleStorage, Settings, Traction};
 use std::time::Instant;
 
 fn main() {
@@ -68,8 +68,8 @@ fn run() -> BoxResult<()> {
         return Err("--steps, --k and --n: at least one each".into());
     }
     let storage = if room > 0.0 { CapsuleStorage::Boxed { room } } else { CapsuleStorage::Whole };
-    let default = Settings::<f64>::default();
-    let settings = Settings { storage, traction: args.traction(default.traction.name())?, ..default };
+    let settings = Settings { storage, ..Settings::default() };
+    let traction = args.traction(Traction::default().name())?;
     let mut csv = CsvWriter::create(
         out.join("cost.csv"),
         &["n", "k", "step_s", "cores", "setup_s", "iters", "marginal_s"],
@@ -78,7 +78,7 @@ fn run() -> BoxResult<()> {
     for &n in &ns {
         for &k in &ks {
             let clock = Instant::now();
-            let mut sim = periodic_capsules(n, k, cpr, settings)?;
+            let mut sim = periodic_capsules(n, k, cpr, settings, traction)?;
             let setup_s = clock.elapsed().as_secs_f64();
             let dt = step(cpr);
             for _ in 0..warm {
@@ -142,7 +142,7 @@ fn run() -> BoxResult<()> {
         ("cores", list(&|r| format!("{:.2}", r.cores))),
         ("setup_s", list(&|r| format!("{:.1}", r.setup_s))),
         ("storage", if room > 0.0 { format!("boxed_room_{room}") } else { "whole".into() }),
-        ("coupling", settings.traction.name().into()),
+        ("traction", traction.name().into()),
         ("cells_per_radius", num(cpr)),
     ]);
     Ok(())

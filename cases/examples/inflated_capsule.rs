@@ -12,7 +12,7 @@
 //! laws) and `pressure.svg`.
 //!
 //! Flags: `--n` (64: 16 cells per radius), `--lambda` (1.05), `--steps` (40), `--dt` (`h / 4`),
-//! `--coupling smoothed|sharp` (`Settings::traction`, smoothed), `--beta B` (1, the MTHINC
+//! `--traction smoothed|sharp` (`Elasticity::traction`, smoothed), `--beta B` (1, the MTHINC
 //! sharpness of the profile, `Settings::with_beta`), `--out DIR`
 //! (`out/inflated_capsule`).
 //!
@@ -24,7 +24,7 @@ use common::{Args, BoxResult, num, result};
 use eulermembrane::grid::Grid;
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw, equibiaxial_tension};
-use eulermembrane::simulation::{Phase, Scene, Settings};
+use eulermembrane::simulation::{Elasticity, Phase, Scene, Settings, Traction};
 use eulermembrane_cases::csv::write_columns;
 use eulermembrane_cases::plot::Figure;
 use std::time::Instant;
@@ -54,9 +54,9 @@ fn run() -> BoxResult<()> {
         n / 4
     );
     let traction = args.traction("smoothed")?;
-    let settings = Settings { traction, ..Settings::default() }.with_beta(args.get("beta", 1.0));
-    let neo = simulate(NeoHookean::new(1.0)?, n, lambda, steps, dt, settings, "neo_hookean")?;
-    let skalak = simulate(Skalak::new(1.0, 1.0)?, n, lambda, steps, dt, settings, "skalak")?;
+    let settings = Settings::default().with_beta(args.get("beta", 1.0));
+    let neo = simulate(NeoHookean::new(1.0)?, n, lambda, steps, dt, settings, traction, "neo_hookean")?;
+    let skalak = simulate(Skalak::new(1.0, 1.0)?, n, lambda, steps, dt, settings, traction, "skalak")?;
     let x: Vec<f64> = (0..n).map(|i| -2.0 + (i as f64 + 0.5) * h).collect();
     write_columns(
         out.join("pressure.csv"),
@@ -76,12 +76,13 @@ fn run() -> BoxResult<()> {
             ("laplace", num(o.laplace)),
             ("rel_err", num(o.jump / o.laplace - 1.0)),
             ("spurious", num(o.spurious)),
-            ("coupling", traction.name().to_string()),
+            ("traction", traction.name().to_string()),
         ]);
     }
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn simulate(
     law: impl SurfaceLaw<f64> + Clone + 'static,
     n: usize,
@@ -89,6 +90,7 @@ fn simulate(
     steps: usize,
     dt: f64,
     settings: Settings<f64>,
+    traction: Traction,
     name: &str,
 ) -> BoxResult<Outcome> {
     let grid = Grid::periodic([n; 3], [-2.0; 3], [2.0; 3])?;
@@ -96,7 +98,7 @@ fn simulate(
     let mu = 1.0;
     let mut sim = Scene::new(grid, Phase::new(1.0, mu)?)
         .capsule(Sphere::new([0.0; 3], 1.0)?)
-        .elasticity(law)
+        .effect(Elasticity::new(law).traction(traction))
         .settings(settings)
         .build()?;
     sim.prestretch(0, lambda)?;

@@ -7,7 +7,7 @@
 //! `--alpha` (2,10,40) to `--t-end` (2): the surface area by (3.7) and by `sum delta h^3`
 //! (`area_alpha*.csv`, `area.svg` like Fig. 12), the x-z section at `y = 0.25` at the end
 //! (`sections.svg`, Fig. 13); a line per alpha `RESULT alpha=... max_area_change=...
-//! max_area_change_delta=... volume_drift=... failed_at=... wall_s=... coupling=...
+//! max_area_change_delta=... volume_drift=... failed_at=... wall_s=... traction=...
 //! gs_transport=... epsilon=...` (largest `|s/s0 - 1|` of the
 //! (3.7) area and of `sum delta h^3`; the time of a failed step, if one failed: the run of that
 //! alpha then stops and the next alpha runs).
@@ -23,7 +23,7 @@
 //! parachute has both positive. `rear_concavity_span` is the first, measured along z instead
 //! (the flow does not vary along z):
 //! `RESULT case=... n=... t=... rear_concavity=... front_convexity=... rear_concavity_span=...
-//! volume_drift=... peak_gs_normal=... peak_gs_trace=... failed_at=... wall_s=... coupling=...
+//! volume_drift=... peak_gs_normal=... peak_gs_trace=... failed_at=... wall_s=... traction=...
 //! gs_transport=... epsilon=...`
 //! (`t` the time reached; a failed step ends the run there, and the figures show the last good
 //! state; `peak_gs_normal` and `peak_gs_trace` the largest `|G_s n|` and `tr G_s` over the
@@ -42,13 +42,13 @@
 //! files written by `--case single` runs, e.g. one process per alpha run side by side.
 //!
 //! Flags: `--n` (32; the paper uses 64, 128 for `many`), `--dt`, `--t-end`, `--alpha LIST`,
-//! `--case`, `--cells`, `--bending-form divergence|energy` (`Settings::bending_form`, default
+//! `--case`, `--cells`, `--bending-form divergence|energy` (`Bending::form`, default
 //! the paper's `divergence`), `--gs-transport paper|tangential|frame|both`
 //! (`Settings::gs_transport`, default `paper`), `--bending-coupling semi-implicit|explicit`
-//! (`Settings::bending_coupling`, default semi-implicit; the paper's and the figures of
+//! (`Bending::coupling`, default semi-implicit; the paper's and the figures of
 //! `docs/validation/red_cells.md` are explicit; `--bending-alpha`, 1),
-//! `--coupling smoothed|sharp` (`Settings::traction`, default the paper's `smoothed`; the key
-//! `coupling` of the `single` and `two` RESULT lines), `--epsilon E` (`Settings::epsilon`, the
+//! `--traction smoothed|sharp` (`Elasticity::traction`, default the paper's `smoothed`; the key
+//! `traction` of the `single` and `two` RESULT lines), `--epsilon E` (`Settings::epsilon`, the
 //! band `delta h >= E` outside which `G_s` is re-set to `P`; 0.01, the paper's range being
 //! 0.01-0.1), `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).
 //!
@@ -65,14 +65,15 @@
 
 use eulermembrane_cases as common;
 
-use common::{Args, BoxResult, num, result};
+use common::{Args, BoxResult, Terms, num, result};
 use eulermembrane::diagnostics::{AreaTracker, ProfileAxes, Span, gs_tangency, streamwise_profile};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{BendingForm, Skalak};
 use eulermembrane::simulation::{
-    BendingCoupling, CapsuleStorage, GsTransport, Phase, Scene, Settings, Simulation, Traction,
+    BendingCoupling, CapsuleStorage, GsTransport, MembraneCoupling, Phase, Scene, Settings, Simulation,
+    Traction,
 };
 use eulermembrane_cases::csv::{CsvWriter, read_columns, write_columns};
 use eulermembrane_cases::plot::{Figure, LineStyle, contour_segments};
@@ -99,15 +100,14 @@ struct Params {
 }
 
 /// The numerical options a run may change (`--bending-form`, `--gs-transport`,
-/// `--bending-coupling`, `--coupling`): [`Settings::bending_form`], [`Settings::gs_transport`],
-/// [`Settings::bending_coupling`] and [`Settings::traction`]; the paper's scheme by default, but
-/// for the library's semi-implicit bending.
+/// `--bending-coupling`, `--traction`): `Bending::form`, [`Settings::gs_transport`],
+/// `Bending::coupling` and `Elasticity::traction`; the paper's scheme by default, but for the
+/// library's semi-implicit bending.
 #[derive(Clone, Copy)]
 struct Numerics {
-    bend: BendingForm,
+    /// The options of the elasticity and the bending.
+    terms: Terms,
     gs_transport: GsTransport,
-    bending_coupling: BendingCoupling,
-    traction: Traction,
     /// `Settings::epsilon`, the band of `delta h >= epsilon`.
     epsilon: f64,
     /// `Settings::storage`: where each cell keeps its fields.
@@ -115,11 +115,11 @@ struct Numerics {
 }
 
 impl Numerics {
-    /// The RESULT keys of the choices a run's figures depend on most: `coupling`,
+    /// The RESULT keys of the choices a run's figures depend on most: `traction`,
     /// `gs_transport` and `epsilon`.
     fn keys(&self) -> [(&'static str, String); 3] {
         [
-            ("coupling", self.traction.name().to_string()),
+            ("traction", self.terms.traction.name().to_string()),
             ("gs_transport", self.gs_transport.name().to_string()),
             ("epsilon", self.epsilon.to_string()),
         ]
@@ -135,10 +135,13 @@ const PAPER: Params = Params {
     radius: 0.17,
     wall_axis: 1,
     numerics: Numerics {
-        bend: BendingForm::Divergence,
+        terms: Terms {
+            traction: Traction::Smoothed,
+            coupling: MembraneCoupling::QuasiImplicit,
+            bending_form: BendingForm::Divergence,
+            bending_coupling: BendingCoupling::SemiImplicit { alpha: 1.0 },
+        },
         gs_transport: GsTransport::Paper,
-        bending_coupling: BendingCoupling::SemiImplicit { alpha: 1.0 },
-        traction: Traction::Smoothed,
         epsilon: 0.01,
         storage: CapsuleStorage::Whole,
     },
@@ -152,10 +155,13 @@ fn run() -> BoxResult<()> {
     let vtk_every: f64 = args.get("vtk-every", 0.5);
     let form: String = args.get("bending-form", "divergence".to_string());
     let numerics = Numerics {
-        bend: BendingForm::from_name(&form)?,
+        terms: Terms {
+            traction: args.traction("smoothed")?,
+            bending_form: BendingForm::from_name(&form)?,
+            bending_coupling: args.bending_coupling()?,
+            ..PAPER.numerics.terms
+        },
         gs_transport: GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?,
-        bending_coupling: args.bending_coupling()?,
-        traction: args.traction("smoothed")?,
         epsilon: args.get("epsilon", PAPER.numerics.epsilon),
         storage: match args.get("room", if case == "many" { 1.2 } else { 0.0 }) {
             r if r > 0.0 => CapsuleStorage::Boxed { room: r },
@@ -197,14 +203,12 @@ fn scene(n: usize, p: &Params, centres: &[[f64; 3]]) -> eulermembrane::Result<Si
         s = s.capsule(Biconcave::new(c, p.radius)?);
     }
     // The body force first: the forces are summed in the order the effects are added.
+    let terms = p.numerics.terms;
     s.body_force([1.0, 0.0, 0.0])
-        .elasticity(Skalak::new(p.es, p.alpha)?)
-        .bending(p.eb)
+        .effect(terms.elasticity(Skalak::new(p.es, p.alpha)?))
+        .effect(terms.bending(p.eb)?)
         .settings(Settings {
-            bending_form: p.numerics.bend,
             gs_transport: p.numerics.gs_transport,
-            bending_coupling: p.numerics.bending_coupling,
-            traction: p.numerics.traction,
             epsilon: p.numerics.epsilon,
             storage: p.numerics.storage,
             ..Settings::default()

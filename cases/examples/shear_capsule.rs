@@ -20,7 +20,7 @@
 //! NaN otherwise); `energy_leak` the energy identity over the last time unit,
 //! `(Delta W - Delta E) / (Delta t mean E)`: the work received less the energy stored, per unit
 //! time and stored energy (0 for a coupling that conserves energy; > 0 lost, < 0 created);
-//! `coupling`, `law` and `box` say how it ran.
+//! `traction`, `law` and `box` say how it ran.
 //!
 //! Steps: adaptive by default (`simulation::AdaptiveDt`: Courant target `--cfl`, the membrane
 //! and bending limits, at most `--max-dt`); `--dt DT` takes fixed steps of `DT` instead (the
@@ -37,12 +37,12 @@
 //! `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
 //! `--sweep`, `--gs-transport paper|tangential|frame|both` (`Settings::gs_transport`, default
 //! `paper`), `--conserve-area` (`Settings::reference_area`),
-//! `--bending-form divergence|energy` (`Settings::bending_form`),
-//! `--bending-coupling semi-implicit|explicit` (`Settings::bending_coupling`, default
+//! `--bending-form divergence|energy` (`Bending::form`),
+//! `--bending-coupling semi-implicit|explicit` (`Bending::coupling`, default
 //! semi-implicit; `--bending-alpha`, 1, its weight `alpha`),
-//! `--coupling sharp|smoothed` (`Settings::traction`, default `sharp`: it holds the membrane's
+//! `--traction sharp|smoothed` (`Elasticity::traction`, default `sharp`: it holds the membrane's
 //! reference area and cuts the overshoot at 8 cells per radius to a third; `smoothed` is the
-//! paper's and `Settings::default()`'s),
+//! paper's and the library's default),
 //! `--law neo_hookean|tension_field` (the membrane: the neo-Hookean law (2.5), default, or its
 //! tension-field relaxation `membrane::TensionField`, a membrane that wrinkles instead of
 //! carrying compression),
@@ -58,19 +58,17 @@
 use eulermembrane_cases as common;
 
 use common::shear::{self, Energy, ShearCase, ShearLaw, ShearOutcome, Steps};
-use common::{Args, BoxResult, num, reference_dir, result};
+use common::{Args, BoxResult, Terms, num, reference_dir, result};
 use eulermembrane::fluid::ViscousScheme;
 use eulermembrane::membrane::BendingForm;
-use eulermembrane::simulation::{
-    AdaptiveDt, BendingCoupling, GsTransport, ReferenceArea, Settings, Traction,
-};
+use eulermembrane::simulation::{AdaptiveDt, GsTransport, ReferenceArea, Settings, Traction};
 use eulermembrane_cases::csv::{CsvWriter, read_xy};
 use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;
 
 const SWEEP: [f64; 5] = [0.0125, 0.025, 0.05, 0.1, 0.2];
-/// The membrane coupling without `--coupling` (docs/validation/shear_capsule.md says why).
-const DEFAULT_COUPLING: &str = "sharp";
+/// The membrane traction without `--traction` (docs/validation/shear_capsule.md says why).
+const DEFAULT_TRACTION: &str = "sharp";
 
 fn main() {
     common::exit_on_error(run());
@@ -110,7 +108,7 @@ fn run() -> BoxResult<()> {
             let case = ShearCase { ca, ..base.clone() };
             eprintln!("shear_capsule: Ca = {ca}, N = {n}, {}, t_end = {}", steps_text(&case), case.t_end);
             let o = simulate(&numerics, &case, None)?;
-            let (d_ref, rel) = report(&case, &o, refdir.clone(), numerics.traction);
+            let (d_ref, rel) = report(&case, &o, refdir.clone(), numerics.terms.traction);
             csv.row(&[ca, n as f64, o.d_steady, o.angle_steady, d_ref, rel, o.wall_s])?;
             let t: Vec<f64> = o.samples.iter().map(|s| s.t).collect();
             fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), &format!("Ca = {ca}"));
@@ -143,7 +141,7 @@ fn run() -> BoxResult<()> {
     fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), "present (full Eulerian)");
     add_references(&mut fig, refdir.clone(), base.ca, base.eb_prime, false);
     fig.save(out.join("deformation.svg"))?;
-    report(&base, &o, refdir, numerics.traction);
+    report(&base, &o, refdir, numerics.terms.traction);
     Ok(())
 }
 
@@ -157,10 +155,8 @@ fn steps_text(case: &ShearCase) -> String {
 
 /// The numerical choices of the flags, parsed once.
 struct Numerics {
-    bending_form: BendingForm,
+    terms: Terms,
     gs_transport: GsTransport,
-    bending_coupling: BendingCoupling,
-    traction: Traction,
     reference_area: ReferenceArea,
     viscous: ViscousScheme,
     epsilon: f64,
@@ -172,10 +168,13 @@ impl Numerics {
     fn from_args(args: &Args) -> BoxResult<Self> {
         let theta: f64 = args.get("viscous-theta", 0.6);
         Ok(Numerics {
-            bending_form: BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?,
+            terms: Terms {
+                traction: args.traction(DEFAULT_TRACTION)?,
+                bending_form: BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?,
+                bending_coupling: args.bending_coupling()?,
+                ..Terms::default()
+            },
             gs_transport: GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?,
-            bending_coupling: args.bending_coupling()?,
-            traction: args.traction(DEFAULT_COUPLING)?,
             reference_area: if args.flag("conserve-area") {
                 ReferenceArea::Conserved
             } else {
@@ -192,9 +191,6 @@ impl Numerics {
         let mut s = Settings {
             gs_transport: self.gs_transport,
             reference_area: self.reference_area,
-            bending_form: self.bending_form,
-            bending_coupling: self.bending_coupling,
-            traction: self.traction,
             epsilon: T::lit(self.epsilon),
             ..Settings::default()
         };
@@ -206,9 +202,9 @@ impl Numerics {
 /// Runs one case in the precision the flags ask for.
 fn simulate(numerics: &Numerics, case: &ShearCase, vtk: Option<(&Path, f64)>) -> BoxResult<ShearOutcome> {
     if numerics.f32 {
-        shear::run::<f32>(case, numerics.settings(), 0.05, vtk, false, Energy::Identity)
+        shear::run::<f32>(case, numerics.settings(), numerics.terms, 0.05, vtk, false, Energy::Identity)
     } else {
-        shear::run::<f64>(case, numerics.settings(), 0.05, vtk, false, Energy::Identity)
+        shear::run::<f64>(case, numerics.settings(), numerics.terms, 0.05, vtk, false, Energy::Identity)
     }
 }
 
@@ -246,7 +242,7 @@ fn report(
     case: &ShearCase,
     o: &ShearOutcome,
     refdir: Option<std::path::PathBuf>,
-    coupling: Traction,
+    traction: Traction,
 ) -> (f64, f64) {
     let d_ref = if case.lambda == 1.0 {
         shear::reference_d(case.ca, case.eb_prime).unwrap_or(f64::NAN)
@@ -274,7 +270,7 @@ fn report(
         ("s0_ratio", num(o.s0_ratio)),
         ("late_change", num(late_change(o))),
         ("energy_leak", num(o.energy_leak)),
-        ("coupling", coupling.name().to_string()),
+        ("traction", traction.name().to_string()),
         ("law", case.law.name().to_string()),
         ("box", case.box_radii.map(|l| l.to_string()).join(",")),
     ]);

@@ -39,8 +39,8 @@
 //! 0.7: 4.50e-3 tangential, 1.21e-2 paper, 8.73e-3 frame, 1.61e-3 both), `--conserve-area`
 //! (`ReferenceArea::Conserved`), `--linear-load` (the load profile
 //! `clamp((z - 0.25) / R, -1, 1)` instead of `sgn(z - 0.25)`, a diagnostic),
-//! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--coupling smoothed|sharp`
-//! (`Settings::traction`, smoothed), `--vtk-every S` (0.25, in
+//! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--traction smoothed|sharp`
+//! (`Elasticity::traction`, smoothed), `--vtk-every S` (0.25, in
 //! time units; 0 for none), `--convergence`, `--max-n N` (128), `--out DIR`
 //! (`out/squashed_sphere`).
 //!
@@ -54,7 +54,9 @@ use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{NeoHookean, StrainAdvection};
-use eulermembrane::simulation::{GsTransport, Phase, ReferenceArea, Scene, Settings, Simulation};
+use eulermembrane::simulation::{
+    Elasticity, GsTransport, Phase, ReferenceArea, Scene, Settings, Simulation, Traction,
+};
 use eulermembrane_cases::csv::CsvWriter;
 use eulermembrane_cases::plot::{Figure, Panels, contour_segments};
 use std::time::Instant;
@@ -70,24 +72,30 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse(include_str!("squashed_sphere.rs"));
     let out = args.out_dir("squashed_sphere");
     let load = Load { gamma: args.get("gamma", 4.0), linear: args.flag("linear-load") };
-    let settings = settings(&args)?;
+    let numerics = numerics(&args)?;
     if args.flag("convergence") {
-        return convergence(&args, load, settings, &out);
+        return convergence(&args, load, numerics, &out);
     }
     let n: usize = args.get("n", 64);
     let t_end: f64 = args.get("t-end", 2.0);
     let vtk_every: f64 = args.get("vtk-every", 0.25);
     let dt: f64 = args.get("dt", dt_of(n));
-    history(n, dt, t_end, load, settings, vtk_every, &out)
+    history(n, dt, t_end, load, numerics, vtk_every, &out)
 }
 
-/// The numerical settings from the flags (also used by `--convergence`).
-fn settings(args: &Args) -> Result<Settings<f64>, Box<dyn std::error::Error>> {
+/// The numerical choices of the flags: the settings and the elasticity's traction.
+#[derive(Clone, Copy)]
+struct Numerics {
+    settings: Settings<f64>,
+    traction: Traction,
+}
+
+/// The numerical choices from the flags (also used by `--convergence`).
+fn numerics(args: &Args) -> Result<Numerics, Box<dyn std::error::Error>> {
     let mut settings = Settings::<f64>::default().with_beta(args.get("beta", 1.0));
     settings.epsilon = args.get("epsilon", settings.epsilon);
     // The example's default is the projection (see the file docs); the library's is the paper's.
     settings.gs_transport = GsTransport::from_name(&args.get("gs-transport", "tangential".to_string()))?;
-    settings.traction = args.traction("smoothed")?;
     if args.flag("conserve-area") {
         settings.reference_area = ReferenceArea::Conserved;
     }
@@ -96,11 +104,11 @@ fn settings(args: &Args) -> Result<Settings<f64>, Box<dyn std::error::Error>> {
         5 => StrainAdvection::Upwind5,
         o => return Err(eulermembrane::Error::invalid("--strain-advection", o, "3 or 5").into()),
     };
-    Ok(settings)
+    Ok(Numerics { settings, traction: args.traction("smoothed")? })
 }
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.
-fn build(n: usize, load: Load, settings: Settings<f64>) -> eulermembrane::Result<Simulation<f64>> {
+fn build(n: usize, load: Load, numerics: Numerics) -> eulermembrane::Result<Simulation<f64>> {
     if n < 8 || !n.is_multiple_of(2) {
         return Err(eulermembrane::Error::invalid("--n", n, "an even number of cells >= 8"));
     }
@@ -109,11 +117,11 @@ fn build(n: usize, load: Load, settings: Settings<f64>) -> eulermembrane::Result
     let grid = Grid::new([n, n, n / 2], [0.0; 3], [1.0, 1.0, 0.5], bc)?;
     Scene::new(grid, Phase::new(1.0, 0.2)?)
         .capsule(Sphere::new([0.5, 0.5, 0.25], RADIUS)?)
-        .elasticity(NeoHookean::new(5.0)?)
+        .effect(Elasticity::new(NeoHookean::new(5.0)?).traction(numerics.traction))
         .surface_force(
             move |x, t| if t <= T_FORCE { [0.0, 0.0, -load.profile(x[2]) * load.gamma] } else { [0.0; 3] },
         )
-        .settings(settings)
+        .settings(numerics.settings)
         .build()
 }
 
@@ -154,11 +162,11 @@ fn history(
     dt: f64,
     t_end: f64,
     load: Load,
-    settings: Settings<f64>,
+    numerics: Numerics,
     vtk_every: f64,
     out: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let mut sim = build(n, load, settings)?;
+    let mut sim = build(n, load, numerics)?;
     let steps = (t_end / dt).round() as usize;
     let g = sim.grid().clone();
     eprintln!("squashed_sphere: {:?} cells, dt = {dt:.3e}, {steps} steps to t = {t_end}", g.n());
@@ -268,8 +276,8 @@ fn history(
     plots(out, n, samples_e, &samples, &sections, &g)?;
     result(&[
         ("n", n.to_string()),
-        ("gs_transport", settings.gs_transport.name().into()),
-        ("coupling", settings.traction.name().into()),
+        ("gs_transport", numerics.settings.gs_transport.name().into()),
+        ("traction", numerics.traction.name().into()),
         ("energy_err", num(energy_err)),
         ("r20_ratio", num(r20_ratio)),
         ("volume_drift", num(max_drift)),
@@ -452,7 +460,7 @@ const PAPER: [(&str, [[f64; 3]; 4]); 3] = [
 fn convergence(
     args: &Args,
     load: Load,
-    settings: Settings<f64>,
+    numerics: Numerics,
     out: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let max_n: usize = args.get("max-n", 128);
@@ -471,7 +479,7 @@ fn convergence(
     let mut sims = Vec::new();
     for &n in &ns {
         let clock = Instant::now();
-        let mut sim = build(n, load, settings)?;
+        let mut sim = build(n, load, numerics)?;
         let dt = dt_of(n);
         let steps = (t_end / dt).round() as usize;
         for _ in 0..steps {
@@ -529,8 +537,8 @@ fn convergence(
     }
     csv.flush()?;
     result(&[
-        ("gs_transport", settings.gs_transport.name().into()),
-        ("coupling", settings.traction.name().into()),
+        ("gs_transport", numerics.settings.gs_transport.name().into()),
+        ("traction", numerics.traction.name().into()),
         ("order_l1_phi", format!("{:.3}", orders[0][0])),
         ("order_l1_v", format!("{:.3}", orders[1][0])),
         ("order_l1_p", format!("{:.3}", orders[2][0])),

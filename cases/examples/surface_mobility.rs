@@ -30,13 +30,13 @@
 //! capsules in shear (`docs/validation/shear_capsule.md`).
 //!
 //! Flags: `--n LIST` (24,32, about a minute; the table of `docs/validation/surface_mobility.md` is
-//! `--n 24,32,48,64`, about 6 minutes; cells per side, `a / h = N / 8`), `--coupling LIST`
-//! (`smoothed,sharp`: `Settings::traction` of each run), `--beta B` (sharpness of the
+//! `--n 24,32,48,64`, about 6 minutes; cells per side, `a / h = N / 8`), `--traction LIST`
+//! (`smoothed,sharp`: `SurfaceLoad::traction` of each run), `--beta B` (sharpness of the
 //! `phi` profile, initial and advected; 1, the paper's), `--lambda L` (inner over outer
 //! viscosity, 1), `--steps` (4000), `--out DIR`
 //! (`out/surface_mobility`: `mobility.csv`, `mobility.svg`).
-//! Prints `RESULT n=... cells_per_radius=... beta=... lambda=... coupling=... normal=... tangential=...
-//! tangential_normal=... wall_s=...` per N and coupling (each the ratio to the Stokes value).
+//! Prints `RESULT n=... cells_per_radius=... beta=... lambda=... traction=... normal=... tangential=...
+//! tangential_normal=... wall_s=...` per N and traction (each the ratio to the Stokes value).
 //!
 //! Run: `cargo run --release --example surface_mobility`.
 
@@ -49,7 +49,7 @@ use eulermembrane::diagnostics::{
 };
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::simulation::{Phase, Scene, Settings, Simulation, Traction};
+use eulermembrane::simulation::{Phase, Scene, Settings, Simulation, SurfaceLoad, Traction};
 use eulermembrane_cases::csv::write_columns;
 use eulermembrane_cases::plot::Figure;
 use std::time::Instant;
@@ -70,12 +70,11 @@ fn scene(
     mode: fn([f64; 3]) -> [f64; 3],
 ) -> eulermembrane::Result<Simulation<f64>> {
     let grid = Grid::new([n; 3], [-HALF; 3], [HALF; 3], [[Boundary::Periodic; 2]; 3])?;
-    let settings = Settings { traction, ..Settings::default() }.with_beta(beta);
     Scene::new(grid, Phase::new(1.0, MU)?)
         .inside(Phase::new(1.0, lambda * MU)?)
         .capsule(Sphere::new([0.0; 3], 1.0)?)
-        .surface_force(move |x, _| mode(x))
-        .settings(settings)
+        .effect(SurfaceLoad::new(move |x, _| mode(x)).traction(traction))
+        .settings(Settings::default().with_beta(beta))
         .build()
 }
 
@@ -149,17 +148,17 @@ fn run() -> BoxResult<()> {
     let lambda: f64 = args.get("lambda", 1.0);
     let stokes = StokesL2::with_viscosity_ratio(lambda)?;
     let max_steps: usize = args.get("steps", 4000);
-    let couplings: Vec<String> = args.list("coupling").unwrap_or(vec!["smoothed".into(), "sharp".into()]);
-    let couplings: Vec<Traction> =
-        couplings.iter().map(|s| Traction::from_name(s)).collect::<Result<_, _>>()?;
+    let tractions: Vec<String> = args.list("traction").unwrap_or(vec!["smoothed".into(), "sharp".into()]);
+    let tractions: Vec<Traction> =
+        tractions.iter().map(|s| Traction::from_name(s)).collect::<Result<_, _>>()?;
     let mut rows: Vec<(Traction, f64, [f64; 3])> = Vec::new();
     for &n in &ns {
         if n < 16 || !n.is_multiple_of(2) {
             return Err(format!("--n {n}: expected even numbers of cells >= 16").into());
         }
-        for &traction in &couplings {
+        for &traction in &tractions {
             eprintln!(
-                "surface_mobility: {n}^3 cells, {} cells per radius, beta = {beta}, {} coupling",
+                "surface_mobility: {n}^3 cells, {} cells per radius, beta = {beta}, {} traction",
                 n / 8,
                 traction.name()
             );
@@ -174,7 +173,7 @@ fn run() -> BoxResult<()> {
                 ("cells_per_radius", (n / 8).to_string()),
                 ("beta", beta.to_string()),
                 ("lambda", lambda.to_string()),
-                ("coupling", traction.name().to_string()),
+                ("traction", traction.name().to_string()),
                 ("normal", num(ratios[0])),
                 ("tangential", num(ratios[1])),
                 ("tangential_normal", num(ratios[2])),
@@ -186,9 +185,9 @@ fn run() -> BoxResult<()> {
     let column = |t: Traction, k: usize| -> Vec<f64> {
         rows.iter().filter(|r| r.0 == t).map(|r| if k == 3 { r.1 } else { r.2[k] }).collect()
     };
-    let cpr = column(couplings[0], 3);
+    let cpr = column(tractions[0], 3);
     let mut columns: Vec<(String, Vec<f64>)> = vec![("cells_per_radius".into(), cpr.clone())];
-    for &t in &couplings {
+    for &t in &tractions {
         for (k, name) in ["normal", "tangential", "tangential_normal"].iter().enumerate() {
             columns.push((format!("{name}_{}", t.name()), column(t, k)));
         }
@@ -200,7 +199,7 @@ fn run() -> BoxResult<()> {
     ))
     .x_label("cells per radius a/h")
     .y_label("ratio");
-    for &t in &couplings {
+    for &t in &tractions {
         let name = t.name();
         fig.line_markers(&cpr, &column(t, 0), &format!("u_r under a normal force, {name}"));
         fig.line_markers(&cpr, &column(t, 1), &format!("u_t under a tangential force, {name}"));

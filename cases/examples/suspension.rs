@@ -24,7 +24,7 @@
 //! `RESULT phi=... phi_target=... ca=... n=... cells_per_radius=... capsules=... mu_eff_wall=...
 //! mu_eff_wall_std=... mu_eff_stresslet=... n1=... n2=... d_mean=... incl_deg=... mu_dilute_rigid=...
 //! min_gap_cells=... vol_drift_max=... steps=... wall_s=... t_end=... average_from=... failed_at=...
-//! coupling=... contact=... seed=... box=... storage=...`: the viscosities, `n1`, `n2`, `d_mean` and
+//! traction=... contact=... seed=... box=... storage=...`: the viscosities, `n1`, `n2`, `d_mean` and
 //! `incl_deg` averaged over the samples with `t >= --average-from`; `mu_eff_wall_std` the standard
 //! deviation of the wall estimate over them; `min_gap_cells` the smallest gap over every step;
 //! `failed_at` the time of a step that failed (`none`: the run reached `--t-end`).
@@ -43,7 +43,7 @@
 //! `--contact` (50; 0 for none), `--contact-range` (2 cells), `--cfl` (0.3), `--max-dt` (0.05),
 //! `--sample-every` (0.05), `--room R` (each capsule on a box that follows it,
 //! `CapsuleStorage::Boxed { room: R }`; 0, the default, keeps every capsule on the whole grid),
-//! `--coupling sharp|smoothed` (`Settings::traction`, default `sharp`,
+//! `--traction sharp|smoothed` (`Elasticity::traction`, default `sharp`,
 //! as `shear_capsule`), `--vtk-every` (1, time units; 0 for none), `--out DIR`
 //! (`out/suspension`).
 //!
@@ -68,8 +68,8 @@ use eulermembrane::interface::placement::{Domain, Placed, Placement, Prototype, 
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::NeoHookean;
 use eulermembrane::simulation::{
-    AdaptiveDt, CapsuleStorage, Contact, Phase, Scene, Settings, Simulation, TimeStepping, Traction,
-    min_gap_cells,
+    AdaptiveDt, CapsuleStorage, Contact, Elasticity, Phase, Scene, Settings, Simulation, TimeStepping,
+    Traction, min_gap_cells,
 };
 use std::path::Path;
 use std::time::Instant;
@@ -140,10 +140,10 @@ impl Config {
             max_dt: args.get("max-dt", 0.05),
             sample_every: args.get("sample-every", 0.05),
             vtk_every: args.get("vtk-every", 1.0),
-            // The sharp coupling, as `shear_capsule` runs by default: the validated capsule in
+            // The sharp traction, as `shear_capsule` runs by default: the validated capsule in
             // shear (docs/validation/shear_capsule.md). It holds the membrane's reference area
-            // and cuts the coarse-grid overshoot of D of the paper's smoothed coupling
-            // (`Settings::default()`) to a third at 8 cells per radius, and its membrane moves
+            // and cuts the coarse-grid overshoot of D of the paper's smoothed traction
+            // (the library's default) to a third at 8 cells per radius, and its membrane moves
             // closer to the Stokes mobility at few cells per radius (surface_mobility.md): what a
             // suspension at 4-5 cells per radius needs most.
             traction: args.traction("sharp")?,
@@ -260,12 +260,12 @@ fn place(cfg: &Config, grid: &Grid<f64>) -> BoxResult<Placed> {
 /// The scene: the placed capsules, the neo-Hookean membrane, the contact; at the undisturbed
 /// shear.
 fn build(cfg: &Config, grid: Grid<f64>, placed: &Placed) -> BoxResult<Simulation<f64>> {
-    let settings = Settings { traction: cfg.traction, storage: cfg.storage, ..Settings::default() };
+    let settings = Settings { storage: cfg.storage, ..Settings::default() };
     let mut scene = Scene::new(grid, Phase::new(1.0, MU)?).settings(settings);
     for shape in placed.shapes()? {
         scene = scene.capsule(shape);
     }
-    scene = scene.elasticity(NeoHookean::new(MU * RADIUS / cfg.ca)?);
+    scene = scene.effect(Elasticity::new(NeoHookean::new(MU * RADIUS / cfg.ca)?).traction(cfg.traction));
     if cfg.contact > 0.0 {
         scene = scene.effect(Contact::new(cfg.contact_pressure(), cfg.contact_range)?);
     }
@@ -446,7 +446,7 @@ fn run() -> BoxResult<()> {
     let k = placed.len();
     eprintln!(
         "suspension: {k} capsules, phi = {:.4} (asked {}), Ca = {}, grid {nx} x {ny} x {nz} ({:.2} cells per \
-         radius), box {:?} radii, {} coupling, contact {} mu gamma_dot within {} cells, dt <= {:.3e}, t_end = {}",
+         radius), box {:?} radii, {} traction, contact {} mu gamma_dot within {} cells, dt <= {:.3e}, t_end = {}",
         placed.volume_fraction(),
         cfg.phi,
         cfg.ca,
@@ -534,7 +534,7 @@ fn run() -> BoxResult<()> {
         ("t_end", format!("{:.4}", sim.time())),
         ("average_from", cfg.average_from.to_string()),
         ("failed_at", outcome.failed_at.map_or("none".to_string(), |t| format!("{t:.4}"))),
-        ("coupling", cfg.traction.name().to_string()),
+        ("traction", cfg.traction.name().to_string()),
         ("contact", cfg.contact.to_string()),
         ("seed", cfg.seed.to_string()),
         ("box", cfg.box_radii.map(|l| l.to_string()).join(",")),

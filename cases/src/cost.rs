@@ -4,7 +4,7 @@
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::placement::{Domain, Placement, Prototype, Target};
 use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::{Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{Elasticity, Phase, Scene, Settings, Simulation, Traction};
 
 /// The capillary number `mu a U / (E_s L)`-like scale of the membrane: `E_s = mu a / CA` with
 /// `a = 1`, `mu = 1` and the wave's amplitude 1.
@@ -17,8 +17,8 @@ pub fn step(cells_per_radius: f64) -> f64 {
 
 /// A periodic cube of `n` cells at `cells_per_radius` cells per radius (radius 1, so `n /
 /// cells_per_radius` radii wide), `rho = mu = 1`, with `k` spheres placed at random (seed 1, at
-/// least two cells apart), the neo-Hookean membrane `E_s = 1 / CA`, and the velocity
-/// `u_x = sin(2 pi z / L)`.
+/// least two cells apart), the neo-Hookean membrane `E_s = 1 / CA` with the traction
+/// `traction`, and the velocity `u_x = sin(2 pi z / L)`.
 ///
 /// # Errors
 /// A grid, placement (e.g. too many capsules for the box) or scene that cannot be built.
@@ -27,6 +27,7 @@ pub fn periodic_capsules(
     k: usize,
     cells_per_radius: f64,
     settings: Settings<f64>,
+    traction: Traction,
 ) -> Result<Simulation<f64>, Box<dyn std::error::Error>> {
     let half = 0.5 * n as f64 / cells_per_radius;
     let grid = Grid::new([n; 3], [-half; 3], [half; 3], [[Boundary::Periodic; 2]; 3])?;
@@ -40,7 +41,7 @@ pub fn periodic_capsules(
         for shape in placed.shapes()? {
             scene = scene.capsule(shape);
         }
-        scene = scene.elasticity(NeoHookean::new(1.0 / CA)?);
+        scene = scene.effect(Elasticity::new(NeoHookean::new(1.0 / CA)?).traction(traction));
     }
     let mut sim = scene.build()?;
     let l = 2.0 * half;

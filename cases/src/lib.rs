@@ -15,10 +15,13 @@
 //!   [`shear`] (the capsule in shear of Sec. 3.3) and [`stability`] (the hard cases of the
 //!   stability suite);
 //! - at the crate root, what every example's `main` uses: its flags ([`Args`], read from the
-//!   example's own header), the `RESULT` line ([`result`], [`num`]), progress lines, CPU time and
-//!   the reference data folder `cases/reference` ([`reference_dir`]).
+//!   example's own header), the options of the membrane terms they choose ([`Terms`]), the
+//!   `RESULT` line ([`result`], [`num`]), progress lines, CPU time and the reference data folder
+//!   `cases/reference` ([`reference_dir`]).
 #![warn(missing_docs)]
 
+use eulermembrane::membrane::{BendingForm, SurfaceLaw};
+use eulermembrane::simulation::{Bending, BendingCoupling, Elasticity, MembraneCoupling, Traction};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -122,13 +125,12 @@ impl Args {
         self.raw(key).is_some()
     }
 
-    /// `Settings::bending_coupling` from `--bending-coupling semi-implicit|explicit` (default
+    /// `Bending::coupling` from `--bending-coupling semi-implicit|explicit` (default
     /// semi-implicit, the library's) and `--bending-alpha` (1).
     ///
     /// # Errors
     /// Any other coupling name.
-    pub fn bending_coupling(&self) -> BoxResult<eulermembrane::simulation::BendingCoupling> {
-        use eulermembrane::simulation::BendingCoupling;
+    pub fn bending_coupling(&self) -> BoxResult<BendingCoupling> {
         match self.get("bending-coupling", "semi-implicit".to_string()).as_str() {
             "explicit" => Ok(BendingCoupling::Explicit),
             "semi-implicit" => Ok(BendingCoupling::SemiImplicit { alpha: self.get("bending-alpha", 1.0) }),
@@ -136,12 +138,12 @@ impl Args {
         }
     }
 
-    /// `Settings::traction` from `--coupling smoothed|sharp` (default `default`).
+    /// `Elasticity::traction` from `--traction smoothed|sharp` (default `default`).
     ///
     /// # Errors
-    /// Any other coupling name.
-    pub fn traction(&self, default: &str) -> BoxResult<eulermembrane::simulation::Traction> {
-        Ok(eulermembrane::simulation::Traction::from_name(&self.get("coupling", default.to_string()))?)
+    /// Any other traction name.
+    pub fn traction(&self, default: &str) -> BoxResult<Traction> {
+        Ok(Traction::from_name(&self.get("traction", default.to_string()))?)
     }
 
     /// The output folder (`--out`, default `out/<name>`), created.
@@ -195,6 +197,36 @@ fn flag_names(help: &str) -> Vec<String> {
         }
     }
     names
+}
+
+/// The options of the membrane terms a case builds, the library's defaults by default: each
+/// term owns its own ([`Elasticity::traction`], [`Elasticity::coupling`], [`Bending::form`],
+/// [`Bending::coupling`]), and the examples' flags choose them together.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Terms {
+    /// The elasticity's traction (`--traction`).
+    pub traction: Traction,
+    /// The coupling of the elasticity's stress to the predictor.
+    pub coupling: MembraneCoupling,
+    /// The bending force's form (`--bending-form`).
+    pub bending_form: BendingForm,
+    /// The coupling of the bending force to the predictor (`--bending-coupling`).
+    pub bending_coupling: BendingCoupling,
+}
+
+impl Terms {
+    /// The elasticity with `law` and these options.
+    pub fn elasticity<T: eulermembrane::Real>(&self, law: impl SurfaceLaw<T> + 'static) -> Elasticity<T> {
+        Elasticity::new(law).traction(self.traction).coupling(self.coupling)
+    }
+
+    /// The bending with modulus `eb` and these options.
+    ///
+    /// # Errors
+    /// Those of [`Bending::new`].
+    pub fn bending<T: eulermembrane::Real>(&self, eb: T) -> eulermembrane::Result<Bending<T>> {
+        Ok(Bending::new(eb)?.form(self.bending_form).coupling(self.bending_coupling))
+    }
 }
 
 /// Observed order of convergence between two errors at resolutions `n1 < n2`.

@@ -9,6 +9,7 @@
 //! `E_s = mu a / Ca` (neo-Hookean), bending `E_b = E_b' a^2 E_s`. The flow starts as the
 //! undisturbed shear `u = z`. Time is in units of the inverse shear rate.
 
+use crate::Terms;
 use crate::csv::CsvWriter;
 use eulermembrane::Real;
 use eulermembrane::diagnostics::{body_force_power, ellipsoid_fit, taylor_deformation};
@@ -208,8 +209,12 @@ impl ShearOutcome {
     }
 }
 
-/// The scene of Sec. 3.3 in precision `T`, with `settings`.
-pub fn build<T: Real>(case: &ShearCase, settings: Settings<T>) -> eulermembrane::Result<Simulation<T>> {
+/// The scene of Sec. 3.3 in precision `T`, with `settings` and the membrane terms' options `terms`.
+pub fn build<T: Real>(
+    case: &ShearCase,
+    settings: Settings<T>,
+    terms: Terms,
+) -> eulermembrane::Result<Simulation<T>> {
     let n = case.n;
     if n < 16 || !n.is_multiple_of(2) {
         return Err(eulermembrane::Error::invalid("--n", n, "an even number of cells >= 16"));
@@ -242,11 +247,11 @@ pub fn build<T: Real>(case: &ShearCase, settings: Settings<T>) -> eulermembrane:
         .settings(settings);
     let law = NeoHookean::new(T::lit(es))?;
     scene = match case.law {
-        ShearLaw::NeoHookean => scene.elasticity(law),
-        ShearLaw::TensionField => scene.elasticity(TensionField::new(law)),
+        ShearLaw::NeoHookean => scene.effect(terms.elasticity(law)),
+        ShearLaw::TensionField => scene.effect(terms.elasticity(TensionField::new(law))),
     };
     if case.eb_prime > 0.0 {
-        scene = scene.bending(T::lit(case.eb_prime * es));
+        scene = scene.effect(terms.bending(T::lit(case.eb_prime * es))?);
     }
     let mut sim = scene.build()?;
     sim.set_velocity(|x| [x[2], T::zero(), T::zero()])?;
@@ -261,6 +266,7 @@ pub fn build<T: Real>(case: &ShearCase, settings: Settings<T>) -> eulermembrane:
 pub fn run<T: Real>(
     case: &ShearCase,
     settings: Settings<T>,
+    terms: Terms,
     sample_every: f64,
     out: Option<(&Path, f64)>,
     quiet: bool,
@@ -283,7 +289,7 @@ pub fn run<T: Real>(
         )?),
         None => None,
     };
-    let mut sim = build(case, settings)?;
+    let mut sim = build(case, settings, terms)?;
     // The expected number of steps (exact for fixed steps; for adaptive ones the progress
     // lines estimate it from the time reached).
     let expected = (case.t_end / case.dt).round().max(1.0) as usize;
@@ -474,9 +480,9 @@ mod tests {
 
     #[test]
     fn the_box_keeps_the_spacing_and_the_shear_rate() {
-        let paper = build::<f64>(&case(ShearCase::PAPER_BOX), Settings::default()).unwrap();
+        let paper = build::<f64>(&case(ShearCase::PAPER_BOX), Settings::default(), Terms::default()).unwrap();
         assert_eq!(paper.grid().n(), [16, 8, 16]);
-        let tall = build::<f64>(&case([8.0, 8.0, 16.0]), Settings::default()).unwrap();
+        let tall = build::<f64>(&case([8.0, 8.0, 16.0]), Settings::default(), Terms::default()).unwrap();
         let g = tall.grid();
         assert_eq!(g.n(), [16, 16, 32]);
         assert_eq!((g.h(), g.lower(), g.upper()), ([0.5; 3], [-4.0, -4.0, -8.0], [4.0, 4.0, 8.0]));
@@ -490,7 +496,7 @@ mod tests {
     #[test]
     fn a_box_off_the_grid_is_refused() {
         for bad in [[8.0, 4.1, 8.0], [8.0, 0.0, 8.0], [8.0, 1.0, 8.0], [f64::NAN, 4.0, 8.0]] {
-            let e = build::<f64>(&case(bad), Settings::default()).err().expect("refused");
+            let e = build::<f64>(&case(bad), Settings::default(), Terms::default()).err().expect("refused");
             assert!(e.to_string().contains("box_radii"), "{bad:?}: {e}");
         }
     }

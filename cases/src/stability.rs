@@ -7,7 +7,9 @@ use eulermembrane::Error;
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::{BendingCoupling, MembraneCoupling, Phase, Scene, Settings, Simulation};
+use eulermembrane::simulation::{
+    Bending, BendingCoupling, Elasticity, MembraneCoupling, Phase, Scene, Simulation,
+};
 
 /// Outer density and viscosity (Re = rho a^2 / mu = 0.01, as in Sec. 3.3).
 pub const RHO: f64 = 1.0;
@@ -18,9 +20,9 @@ pub const MU: f64 = 100.0;
 /// bending force's (the rest of the settings are the defaults).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Coupling {
-    /// The in-plane stress ([`Settings::coupling`]).
+    /// The in-plane stress ([`Elasticity::coupling`]).
     pub membrane: MembraneCoupling,
-    /// The bending force ([`Settings::bending_coupling`]).
+    /// The bending force ([`Bending::coupling`]).
     pub bending: BendingCoupling,
 }
 
@@ -108,12 +110,9 @@ pub fn build(case: &Case, n: usize, coupling: impl Into<Coupling>) -> eulermembr
     let u = case.shear * half[2];
     bc[2] = [Boundary::Wall { velocity: [-u, 0.0, 0.0] }, Boundary::Wall { velocity: [u, 0.0, 0.0] }];
     let grid = Grid::new([cells(lx), cells(ly), cells(lz)], half.map(|x| -x), half, bc)?;
-    let settings =
-        Settings { coupling: coupling.membrane, bending_coupling: coupling.bending, ..Settings::default() };
     let mut scene = Scene::new(grid, Phase::new(RHO, case.mu)?)
         .inside(Phase::new(RHO, case.mu * case.lambda)?)
-        .elasticity(NeoHookean::new(case.e_s())?)
-        .settings(settings);
+        .effect(Elasticity::new(NeoHookean::new(case.e_s())?).coupling(coupling.membrane));
     scene = match case.layout {
         Layout::Centre => scene.capsule(Sphere::new([0.0; 3], 1.0)?),
         Layout::NearWall => scene.capsule(Sphere::new([0.0; 3], 1.0)?),
@@ -122,7 +121,7 @@ pub fn build(case: &Case, n: usize, coupling: impl Into<Coupling>) -> eulermembr
         }
     };
     if case.eb_reduced > 0.0 {
-        scene = scene.bending(case.e_b());
+        scene = scene.effect(Bending::new(case.e_b())?.coupling(coupling.bending));
     }
     let mut sim = scene.build()?;
     sim.set_velocity(|x| [case.shear * x[2], 0.0, 0.0])?;

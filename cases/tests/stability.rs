@@ -6,8 +6,8 @@
 //! `docs/stability.md`.
 
 use eulermembrane::membrane::BendingForm;
+use eulermembrane::simulation::MembraneCoupling;
 use eulermembrane::simulation::stability::{C_EXPLICIT, C_QUASI_IMPLICIT, membrane_dt_limit};
-use eulermembrane::simulation::{MembraneCoupling, Settings};
 use eulermembrane_cases::stability::{Case, Layout, Outcome, build, cases, run};
 
 /// Cells along x of the 4-wide box (`h = 1/4`, capsule radius 4 cells).
@@ -168,18 +168,17 @@ fn max_speed(sim: &eulermembrane::simulation::Simulation<f64>) -> f64 {
 /// A sphere of radius 12.8 cells at rest with bending only (its own shape as the reference,
 /// `E_b = 5e-5`, `mu = 0.15`, the red cell's moduli at the paper's N = 64): the largest velocity
 /// after 10 and after `steps` steps of `dt = 4e-4`. Box 40^3 cells of `h = 1/128`, walls in y.
-fn sphere_at_rest(settings: Settings<f64>, steps: usize) -> (f64, f64) {
+fn sphere_at_rest(form: BendingForm, steps: usize) -> (f64, f64) {
     use eulermembrane::grid::{Boundary, Grid};
     use eulermembrane::interface::shapes::Sphere;
-    use eulermembrane::simulation::{Phase, Scene};
+    use eulermembrane::simulation::{Bending, Phase, Scene};
     let mut bc = [[Boundary::Periodic; 2]; 3];
     bc[1] = [Boundary::wall(), Boundary::wall()];
     let l = 40.0 / 128.0;
     let grid = Grid::new([40; 3], [0.0; 3], [l; 3], bc).unwrap();
     let mut sim = Scene::new(grid, Phase::new(1.0, 0.15).unwrap())
         .capsule(Sphere::new([l / 2.0; 3], 0.1).unwrap())
-        .bending(5e-5)
-        .settings(settings)
+        .effect(Bending::new(5e-5).unwrap().form(form))
         .build()
         .unwrap();
     let mut early = 0.0;
@@ -199,7 +198,7 @@ fn sphere_at_rest(settings: Settings<f64>, steps: usize) -> (f64, f64) {
 /// in 50 steps. Asserted: no growth over 60 steps.
 #[test]
 fn bending_keeps_a_sphere_at_rest() {
-    let (early, late) = sphere_at_rest(Settings::default(), 60);
+    let (early, late) = sphere_at_rest(BendingForm::default(), 60);
     println!("max |v| after 10 / 60 steps: {early:.3e} / {late:.3e}");
     assert!(late <= early, "paper's force: {early:e} -> {late:e}");
 }
@@ -210,8 +209,7 @@ fn bending_keeps_a_sphere_at_rest() {
 /// `E_b/(mu R^2)`.
 #[test]
 fn energy_gradient_bending_keeps_a_sphere_at_rest() {
-    let settings = Settings { bending_form: BendingForm::EnergyGradient, ..Settings::default() };
-    let (early, late) = sphere_at_rest(settings, 120);
+    let (early, late) = sphere_at_rest(BendingForm::EnergyGradient, 120);
     println!("max |v| after 10 / 120 steps: {early:.3e} / {late:.3e}");
     let scale = 5e-5 / (0.15 * 0.1 * 0.1);
     assert!(late <= early && late < 0.02 * scale, "energy gradient: {early:e} -> {late:e} (scale {scale:e})");

@@ -157,14 +157,16 @@ impl<T: Real> Level<T> {
 
 impl<T: Real> Capsule<T> {
     /// A capsule of `shape` in the box `window` of the grid `whole`, carrying the fields of
-    /// `needs`, its normals from `normals`, its interface carried by the transport `make`
-    /// returns.
+    /// `needs` and the membrane velocity map of `traction`, its normals from `normals`, its
+    /// interface carried by the transport `make` returns.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         whole: &Grid<T>,
         window: Window,
         shape: &dyn Shape,
         settings: &Settings<T>,
         needs: Needs,
+        traction: Traction,
         normals: &mut dyn NormalEstimator<T>,
         make: &TransportMaker<T>,
     ) -> Result<Self> {
@@ -196,7 +198,7 @@ impl<T: Real> Capsule<T> {
             ),
             false => None,
         };
-        let extension = match settings.traction {
+        let extension = match traction {
             Traction::Sharp => {
                 let mut e = SurfaceExtension::new(grid, settings.advection.beta)?;
                 e.rebuild(&cur.band, &cur.phi, &cur.normal)?;
@@ -210,6 +212,14 @@ impl<T: Real> Capsule<T> {
             cap.reference_target = cap.reference_area();
         }
         Ok(cap)
+    }
+
+    /// Its traction: sharp where it carries the membrane velocity map.
+    pub(crate) fn traction(&self) -> Traction {
+        match self.extension {
+            Some(_) => Traction::Sharp,
+            None => Traction::Smoothed,
+        }
     }
 
     /// The membrane at the current level.

@@ -65,7 +65,7 @@
 //! ```
 
 use super::capsule::Capsule;
-use super::scene::{Phase, Settings};
+use super::scene::{Phase, Settings, Traction};
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::membrane::{Band, SurfaceExtension, SurfaceLaw};
 use crate::{Error, Real, Result};
@@ -212,9 +212,9 @@ pub struct MembraneView<'a, T> {
     /// `G_s` at `t^n` (valid on the band and its halo), where some effect
     /// [needs](Needs::strain) it on this capsule.
     pub gs: Option<&'a SymField<T>>,
-    /// The map from the fluid velocity to the membrane velocity of
-    /// [`Traction::Sharp`](super::Traction::Sharp), built for the step being computed (`None`
-    /// with the smoothed traction): in-plane forces act through it.
+    /// The map from the fluid velocity to the membrane velocity of [`Traction::Sharp`], built
+    /// for the step being computed (`None` where the capsule's traction is the smoothed one, see
+    /// [`Effect::requested_traction`]): in-plane forces act through it.
     pub extension: Option<&'a SurfaceExtension<T>>,
 }
 
@@ -331,6 +331,16 @@ pub trait Effect<T: Real>: Send + Sync {
     /// The fields this effect needs on the capsules it [acts on](Self::acts_on).
     fn needs(&self) -> Needs {
         Needs::NONE
+    }
+
+    /// The [`Traction`] this effect asks for on the capsules it [acts on](Self::acts_on), if it
+    /// has a say (`None`: it acts with whatever traction the capsule has). A capsule with the
+    /// sharp traction carries the membrane velocity map ([`MembraneView::extension`]) and has
+    /// `G_s` projected onto the tangent plane after each step; two effects that ask one capsule
+    /// for different tractions are refused by [`Scene::build`](super::Scene::build). Default:
+    /// `None`.
+    fn requested_traction(&self) -> Option<Traction> {
+        None
     }
 
     /// Whether the effect acts on capsule `c` (for [`needs`](Self::needs)). Default: all.
@@ -451,6 +461,9 @@ impl<T: Real> Effect<T> for Box<dyn Effect<T>> {
     }
     fn needs(&self) -> Needs {
         (**self).needs()
+    }
+    fn requested_traction(&self) -> Option<Traction> {
+        (**self).requested_traction()
     }
     fn acts_on(&self, c: usize) -> bool {
         (**self).acts_on(c)

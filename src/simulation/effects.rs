@@ -158,16 +158,21 @@ impl<W> PerCapsule<W> {
 
 /// In-plane elasticity of the membranes with a [`SurfaceLaw`]: the force
 /// `div(delta tau)` (2.26) with the stress (2.4) of `G_s`, quasi-implicit (2.32)-(2.35) or
-/// explicit by [`Settings::coupling`](super::Settings::coupling). Needs `G_s`.
+/// explicit by its [`coupling`](Self::coupling), acting across the smoothed shell or at the
+/// surface by its [`traction`](Self::traction). Needs `G_s`.
 ///
 /// ```
 /// use eulermembrane::membrane::{NeoHookean, Skalak};
-/// use eulermembrane::simulation::Elasticity;
+/// use eulermembrane::simulation::{Elasticity, MembraneCoupling, Traction};
 ///
 /// // A stiff capsule 0 and a soft capsule 1 in one scene.
 /// let stiff = Elasticity::<f64>::new(NeoHookean::new(10.0)?).only([0]);
 /// let soft = Elasticity::<f64>::new(Skalak::new(1.0, 2.0)?).only([1]);
-/// # let _ = (stiff, soft);
+/// // The validated shear runs' elasticity: the sharp traction, the default coupling.
+/// let sharp = Elasticity::<f64>::new(NeoHookean::new(1.0)?).traction(Traction::Sharp);
+/// // The explicit stress of the stability studies.
+/// let explicit = Elasticity::<f64>::new(NeoHookean::new(1.0)?).coupling(MembraneCoupling::Explicit);
+/// # let _ = (stiff, soft, sharp, explicit);
 /// # Ok::<(), eulermembrane::Error>(())
 /// ```
 pub struct Elasticity<T: Real> {
@@ -175,21 +180,40 @@ pub struct Elasticity<T: Real> {
     /// The capsules it acts on, each with its evaluation state.
     at: PerCapsule<InPlaneElasticity<T, SharedLaw<T>>>,
     coupling: MembraneCoupling,
+    traction: Traction,
 }
 
 impl<T: Real> Elasticity<T> {
-    /// Elasticity with `law` on every capsule.
+    /// Elasticity with `law` on every capsule, with the default [`MembraneCoupling`] and
+    /// [`Traction`].
     pub fn new(law: impl SurfaceLaw<T> + 'static) -> Self {
         Elasticity {
             law: SharedLaw(Arc::new(law)),
             at: PerCapsule::all(),
             coupling: MembraneCoupling::default(),
+            traction: Traction::default(),
         }
     }
 
     /// The same elasticity on the capsules with these indices only.
     pub fn only(mut self, capsules: impl IntoIterator<Item = usize>) -> Self {
         self.at.only(capsules);
+        self
+    }
+
+    /// The same elasticity with the coupling `coupling` of its stress to the predictor
+    /// (default [`MembraneCoupling::QuasiImplicit`], the paper's (2.32)-(2.35)).
+    pub fn coupling(mut self, coupling: MembraneCoupling) -> Self {
+        self.coupling = coupling;
+        self
+    }
+
+    /// The same elasticity with the traction `traction` on its capsules (default
+    /// [`Traction::Smoothed`], the paper's): which velocity carries and strains their
+    /// membranes and where its force acts. [`Traction::Sharp`] with the quasi-implicit coupling
+    /// needs the Krylov predictor ([`Scene::build`](super::Scene::build) refuses it with SOR).
+    pub fn traction(mut self, traction: Traction) -> Self {
+        self.traction = traction;
         self
     }
 
@@ -216,6 +240,9 @@ impl<T: Real> Effect<T> for Elasticity<T> {
     fn needs(&self) -> Needs {
         Needs::STRAIN
     }
+    fn requested_traction(&self) -> Option<Traction> {
+        Some(self.traction)
+    }
     fn acts_on(&self, c: usize) -> bool {
         self.at.capsules.contains(c)
     }
@@ -237,10 +264,9 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         }
         // A law with stress at rest would drive a capsule in its reference state.
         check_stress_free(self.law())?;
-        let s = setup.settings;
-        if s.traction == Traction::Sharp
-            && s.coupling == MembraneCoupling::QuasiImplicit
-            && matches!(s.flow.predictor, PredictorSolver::Sor(_))
+        if self.traction == Traction::Sharp
+            && self.coupling == MembraneCoupling::QuasiImplicit
+            && matches!(setup.settings.flow.predictor, PredictorSolver::Sor(_))
         {
             return Err(Error::invalid(
                 "traction",
@@ -248,7 +274,6 @@ impl<T: Real> Effect<T> for Elasticity<T> {
                 "the Krylov predictor (or the explicit membrane coupling) with the sharp traction",
             ));
         }
-        self.coupling = s.coupling;
         Ok(())
     }
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
@@ -329,20 +354,33 @@ impl<T: Real> Effect<T> for Elasticity<T> {
 
 /// Bending of the membranes with modulus `E_b` (2.8): the force `div(q~ n)` of the modified
 /// bending stress (2.16)-(2.17), or the energy gradient of [`BendingForm::EnergyGradient`]
-/// (by [`Settings::bending_form`](super::Settings::bending_form)). Needs `kappa_R tilde`.
+/// (by its [`form`](Self::form)), explicit or semi-implicit by its
+/// [`coupling`](Self::coupling). Needs `kappa_R tilde`.
+///
+/// ```
+/// use eulermembrane::membrane::BendingForm;
+/// use eulermembrane::simulation::{Bending, BendingCoupling};
+///
+/// // The paper's bending: the divergence form, explicit.
+/// let paper = Bending::<f64>::new(1e-3)?.coupling(BendingCoupling::Explicit);
+/// // The energy gradient, semi-implicit with alpha = 1 (the default coupling).
+/// let energy = Bending::<f64>::new(1e-3)?.form(BendingForm::EnergyGradient);
+/// # let _ = (paper, energy);
+/// # Ok::<(), eulermembrane::Error>(())
+/// ```
 pub struct Bending<T: Real> {
     eb: T,
     /// The capsules it acts on, each with its bending stress and the semi-implicit part
     /// ([`BendingCoupling::SemiImplicit`]), if any.
     at: PerCapsule<(BendingStress<T>, Option<BendingImplicit<T>>)>,
     form: BendingForm,
+    coupling: BendingCoupling,
     atanh4: bool,
-    /// Whether the coupling is semi-implicit.
-    implicit: bool,
 }
 
 impl<T: Real> Bending<T> {
-    /// Bending with modulus `eb` on every capsule.
+    /// Bending with modulus `eb` on every capsule, with the default [`BendingForm`] and
+    /// [`BendingCoupling`].
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] naming `eb` unless it is finite and `> 0`.
@@ -352,14 +390,32 @@ impl<T: Real> Bending<T> {
             eb,
             at: PerCapsule::all(),
             form: BendingForm::default(),
+            coupling: BendingCoupling::default(),
             atanh4: false,
-            implicit: false,
         })
     }
 
     /// The same bending on the capsules with these indices only.
     pub fn only(mut self, capsules: impl IntoIterator<Item = usize>) -> Self {
         self.at.only(capsules);
+        self
+    }
+
+    /// The same bending with the discrete force `form` (default [`BendingForm::Divergence`],
+    /// the paper's `div(q~ n)` (2.16)). [`BendingForm::EnergyGradient`] is the exact gradient of
+    /// a discrete bending energy with the same moment (its power balances the energy; a
+    /// slightly different continuum model, see its docs) and needs
+    /// [`Settings::normals`](super::Settings::normals) `Atanh2` or `Atanh4`. Not in the paper.
+    pub fn form(mut self, form: BendingForm) -> Self {
+        self.form = form;
+        self
+    }
+
+    /// The same bending with the coupling `coupling` of its force to the predictor (default
+    /// [`BendingCoupling::SemiImplicit`] with `alpha = 1`; [`BendingCoupling::Explicit`] is the
+    /// paper's). An `alpha` outside `[0.5, 1]` is refused by [`Scene::build`](super::Scene::build).
+    pub fn coupling(mut self, coupling: BendingCoupling) -> Self {
+        self.coupling = coupling;
         self
     }
 
@@ -388,7 +444,7 @@ impl<T: Real> Effect<T> for Bending<T> {
     fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
         let eb = self.eb;
         let s = setup.settings;
-        let alpha = match s.bending_coupling {
+        let alpha = match self.coupling {
             BendingCoupling::Explicit => None,
             BendingCoupling::SemiImplicit { alpha } => Some(T::lit(alpha)),
         };
@@ -397,23 +453,20 @@ impl<T: Real> Effect<T> for Bending<T> {
             let implicit = alpha.map(|a| BendingImplicit::new(g, eb, a)).transpose()?;
             Ok((BendingStress::new(g, eb)?, implicit))
         })?;
-        if s.bending_form == BendingForm::EnergyGradient
+        if self.form == BendingForm::EnergyGradient
             && !matches!(s.normals, NormalScheme::Atanh2 | NormalScheme::Atanh4)
         {
             return Err(Error::invalid(
                 "normals",
                 s.normals.name(),
-                "atanh2 or atanh4 with bending_form EnergyGradient",
+                "atanh2 or atanh4 with bending form EnergyGradient",
             ));
         }
-        self.form = s.bending_form;
         self.atanh4 = s.normals == NormalScheme::Atanh4;
-        self.implicit = alpha.is_some();
         Ok(())
     }
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
-        let coupling = setup.settings.bending_coupling;
-        bending_dt_limit(setup.mean_viscosity(), setup.min_spacing(), self.eb.f64(), coupling).ok()
+        bending_dt_limit(setup.mean_viscosity(), setup.min_spacing(), self.eb.f64(), self.coupling).ok()
     }
     fn prepare(&mut self, state: &StepState<'_, T>, _: &VectorField<T>, dt: T) -> Result<()> {
         for (c, (b, imp)) in self.at.iter_mut() {
@@ -450,7 +503,7 @@ impl<T: Real> Effect<T> for Bending<T> {
         Ok(())
     }
     fn has_implicit(&self, _: &StepState<'_, T>) -> bool {
-        self.implicit
+        matches!(self.coupling, BendingCoupling::SemiImplicit { .. })
     }
     fn add_implicit(
         &self,
@@ -474,21 +527,40 @@ pub type SurfaceForceFn = dyn Fn([f64; 3], f64) -> [f64; 3] + Send + Sync;
 
 /// A surface force `f(x, t)` per unit area on the membranes ([`SurfaceForceFn`]), spread as
 /// `delta f` on the faces around each membrane band, with `delta` cut to the band
-/// (`delta h >= epsilon`, like every membrane force) and averaged to the faces.
+/// (`delta h >= epsilon`, like every membrane force) and averaged to the faces; on a capsule
+/// with the sharp traction it acts at the surface, through the membrane velocity map.
+///
+/// ```
+/// use eulermembrane::simulation::{SurfaceLoad, Traction};
+///
+/// // A load on membranes without elasticity, acting at the surface `phi = 1/2`.
+/// let load = SurfaceLoad::new(|x, _| [0.0, 0.0, -x[2]]).traction(Traction::Sharp);
+/// # let _ = load;
+/// ```
 pub struct SurfaceLoad {
     f: Arc<SurfaceForceFn>,
     capsules: Capsules,
+    traction: Option<Traction>,
 }
 
 impl SurfaceLoad {
-    /// A load `f(x, t)` on every capsule.
+    /// A load `f(x, t)` on every capsule, acting with each capsule's traction.
     pub fn new(f: impl Fn([f64; 3], f64) -> [f64; 3] + Send + Sync + 'static) -> Self {
-        SurfaceLoad { f: Arc::new(f), capsules: Capsules::All }
+        SurfaceLoad { f: Arc::new(f), capsules: Capsules::All, traction: None }
     }
 
     /// The same load on the capsules with these indices only.
     pub fn only(mut self, capsules: impl IntoIterator<Item = usize>) -> Self {
         self.capsules = Capsules::Only(capsules.into_iter().collect());
+        self
+    }
+
+    /// The same load, asking its capsules for the traction `traction` (see
+    /// [`Effect::requested_traction`]): for a load on membranes without [`Elasticity`], which
+    /// otherwise have the smoothed one. Without it the load acts with whatever traction the
+    /// capsule has.
+    pub fn traction(mut self, traction: Traction) -> Self {
+        self.traction = Some(traction);
         self
     }
 }
@@ -499,6 +571,9 @@ impl<T: Real> Effect<T> for SurfaceLoad {
     }
     fn describe(&self) -> String {
         format!("surface_force capsules={:?}", self.capsules)
+    }
+    fn requested_traction(&self) -> Option<Traction> {
+        self.traction
     }
     fn acts_on(&self, c: usize) -> bool {
         self.capsules.contains(c)

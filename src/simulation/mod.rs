@@ -217,20 +217,28 @@ impl<T: Real> Simulation<T> {
         grid: Grid<T>,
         outside: Phase<T>,
         inside: Phase<T>,
-        shapes: Vec<(Box<dyn crate::interface::shapes::Shape + Send>, Window)>,
+        shapes: Vec<(Box<dyn crate::interface::shapes::Shape + Send>, Window, Traction)>,
         effects: Vec<Box<dyn Effect<T>>>,
         settings: Settings<T>,
         mut strategies: Strategies<T>,
     ) -> Result<Self> {
         let (mut normals, make) = strategies.interface(&grid, &settings);
         let mut capsules = Vec::with_capacity(shapes.len());
-        for (c, (shape, window)) in shapes.into_iter().enumerate() {
+        for (c, (shape, window, traction)) in shapes.into_iter().enumerate() {
             let needs = effects.iter().filter(|e| e.acts_on(c)).fold(Needs::NONE, |n, e| {
                 let m = e.needs();
                 Needs { strain: n.strain || m.strain, curvature: n.curvature || m.curvature }
             });
-            let mut cap =
-                Capsule::new(&grid, window, shape.as_ref(), &settings, needs, normals.as_mut(), &make)?;
+            let mut cap = Capsule::new(
+                &grid,
+                window,
+                shape.as_ref(),
+                &settings,
+                needs,
+                traction,
+                normals.as_mut(),
+                &make,
+            )?;
             if !cap.boxed.window.is_whole() {
                 // A box moves with its capsule: its transport must move its history with it.
                 cap.transport.roll(&cap.boxed.grid, 0, 0)?;
@@ -445,7 +453,7 @@ impl<T: Real> Simulation<T> {
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
                 strain.commit(&cap.next.band, &cap.next.normal, gs)?;
                 // The sharp membrane is one surface: G_s has no normal part (2.18).
-                if self.settings.gs_transport.projects() || self.settings.traction == Traction::Sharp {
+                if self.settings.gs_transport.projects() || cap.extension.is_some() {
                     let n = &cap.next.normal;
                     for &idx in cap.next.band.cells() {
                         let p = projector(&cell_vector(n, idx));
@@ -633,6 +641,14 @@ impl<T: Real> Simulation<T> {
             e.extend(&v, out);
         }
         Ok(())
+    }
+    /// The [`Traction`] of capsule `c`: the one its effects ask for
+    /// ([`Effect::requested_traction`]), smoothed where none asks.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `capsule` for an unknown capsule.
+    pub fn traction(&self, c: usize) -> Result<Traction> {
+        Ok(self.capsule(c)?.traction())
     }
     /// Unit normals of capsule `c` at cell centres (pointing into the capsule).
     pub fn normal(&self, c: usize) -> Result<&[Field<T>; 3]> {

@@ -1,6 +1,6 @@
 //! Output of a [`Simulation`]: ParaView snapshots (`.vti`) and checkpoints of the whole state.
 
-use super::Simulation;
+use super::{Simulation, Traction};
 use crate::Real;
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, SymField, Window};
@@ -11,16 +11,22 @@ use crate::{Error, Result};
 use std::path::Path;
 
 impl<T: Real> Simulation<T> {
-    /// The scene's physics in one line: the phases, the [`Traction`](super::Traction) and
-    /// every effect's [`describe`](super::Effect::describe), as checkpoints record it.
+    /// The scene's physics in one line: the phases, the capsules' [`Traction`] (one name where
+    /// they share it, else one a capsule, comma-separated) and every effect's
+    /// [`describe`](super::Effect::describe), as checkpoints record it.
     pub fn physics(&self) -> String {
+        let names: Vec<&str> = self.capsules.iter().map(|c| c.traction().name()).collect();
+        let traction = match names.first() {
+            None => Traction::default().name().to_string(),
+            Some(first) if names.iter().all(|n| n == first) => first.to_string(),
+            Some(_) => names.join(","),
+        };
         let mut s = format!(
-            "outside rho={:e} mu={:e}; inside rho={:e} mu={:e}; traction={}",
+            "outside rho={:e} mu={:e}; inside rho={:e} mu={:e}; traction={traction}",
             self.outside.rho.f64(),
             self.outside.mu.f64(),
             self.inside.rho.f64(),
             self.inside.mu.f64(),
-            self.settings.traction.name()
         );
         for e in &self.effects {
             s.push_str("; ");

@@ -13,7 +13,7 @@ use crate::interface::shapes::{Shape, Smoothing};
 use crate::interface::{
     AdvectionParams, Advector, Carried, Geometry, InterfaceTransport, NormalEstimator, NormalScheme,
 };
-use crate::membrane::{BendingForm, StrainAdvection, SurfaceLaw};
+use crate::membrane::{StrainAdvection, SurfaceLaw};
 use crate::{Error, Real, Result};
 
 /// Density `rho` and dynamic viscosity `mu` of one fluid phase.
@@ -34,26 +34,29 @@ impl<T: Real> Phase<T> {
     }
 }
 
-/// Numerical settings of a [`Scene`]; the defaults are the ones validated in `docs/`.
+/// Grid-wide numerical settings of a [`Scene`]; the defaults are the ones validated in `docs/`.
+///
+/// The options of one term belong to that term: the membrane traction and the coupling of the
+/// in-plane stress to [`Elasticity`] ([`Elasticity::traction`], [`Elasticity::coupling`]), the
+/// bending force's form and coupling to [`Bending`] ([`Bending::form`], [`Bending::coupling`]).
 ///
 /// # Choosing
 /// Start from `Settings::default()` and change only what the case needs. The validated capsule
-/// runs (`examples/capsule_in_shear.rs`, `cases/examples/shear_capsule.rs`) change one field:
-/// [`traction`](Self::traction) `= Traction::Sharp`, which at 6–8 cells per radius holds the
-/// membrane's reference area and cuts the overshoot of the deformation to a third (the default
-/// [`Traction::Smoothed`] is the paper's). Everything else stays: the damped viscous scheme
-/// `Theta(0.6)`, the band `epsilon = 0.01`, the quasi-implicit membrane coupling, the
-/// semi-implicit bending. For many capsules in a large box,
+/// runs (`examples/capsule_in_shear.rs`, `cases/examples/shear_capsule.rs`) keep every setting
+/// and change one option of the elasticity: [`Traction::Sharp`], which at 6–8 cells per radius
+/// holds the membrane's reference area and cuts the overshoot of the deformation to a third
+/// (the default [`Traction::Smoothed`] is the paper's). Everything else stays: the damped
+/// viscous scheme `Theta(0.6)`, the band `epsilon = 0.01`, the quasi-implicit membrane
+/// coupling, the semi-implicit bending. For many capsules in a large box,
 /// [`storage`](Self::storage) `= CapsuleStorage::Boxed { room: 1.2 }` saves memory. The step
 /// is not a setting: [`AdaptiveDt::new`](super::AdaptiveDt::new)`(0.05)` (Courant target 0.3)
 /// chooses it; a fixed `dt` should keep the Courant number `max|v| dt / h` near 0.3 and below
 /// [`Simulation::membrane_dt_limit`].
 ///
 /// ```
-/// use eulermembrane::simulation::{Settings, Traction};
+/// use eulermembrane::simulation::{CapsuleStorage, Settings};
 ///
-/// // The settings of the validated shear runs: the defaults with the sharp traction.
-/// let settings = Settings::<f64> { traction: Traction::Sharp, ..Settings::default() };
+/// let settings = Settings::<f64> { storage: CapsuleStorage::Boxed { room: 1.2 }, ..Settings::default() };
 /// assert_eq!(settings.epsilon, 0.01);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -77,9 +80,6 @@ pub struct Settings<T> {
     pub epsilon: T,
     /// Cell averaging of the initial shapes.
     pub smoothing: Smoothing,
-    /// How the in-plane membrane stress enters the predictor. Default
-    /// [`MembraneCoupling::QuasiImplicit`] (2.32)-(2.35).
-    pub coupling: MembraneCoupling,
     /// How `G_s` is carried from step to step. Default [`GsTransport::Paper`] (2.40).
     pub gs_transport: GsTransport,
     /// Whether the membrane's reference area is left to the transport or held. Default
@@ -89,17 +89,6 @@ pub struct Settings<T> {
     /// [`StrainAdvection::Upwind3`] (the paper's); [`StrainAdvection::Upwind5`] is more accurate
     /// and less dissipative.
     pub strain_advection: StrainAdvection,
-    /// The discrete bending force. Default [`BendingForm::Divergence`] (the paper's
-    /// `∇·(q̃ n)` (2.16)); [`BendingForm::EnergyGradient`] is the exact gradient of a discrete
-    /// bending energy with the same moment (its power balances the energy; a slightly different
-    /// continuum model, see its docs). It needs `normals` `Atanh2` or `Atanh4`. Not in the paper.
-    pub bending_form: BendingForm,
-    /// How the bending force enters the predictor. Default [`BendingCoupling::SemiImplicit`]
-    /// with `alpha = 1`; [`BendingCoupling::Explicit`] is the paper's.
-    pub bending_coupling: BendingCoupling,
-    /// Which velocity carries and strains the membrane, and where its in-plane force acts.
-    /// Default [`Traction::Smoothed`] (the paper's).
-    pub traction: Traction,
     /// Where each capsule keeps its fields. Default [`CapsuleStorage::Whole`].
     pub storage: CapsuleStorage,
 }
@@ -164,18 +153,22 @@ pub const BOX_MIN_ROOM: usize = 4;
 /// Which velocity carries and strains the membrane (`G_s`), and so where the in-plane membrane
 /// force acts (it is the adjoint of that velocity's strain rate).
 ///
+/// A capsule's traction is the one its effects ask for ([`Effect::requested_traction`]): its
+/// [`Elasticity`] ([`Elasticity::traction`], the default [`Smoothed`](Self::Smoothed)) or a
+/// [`SurfaceLoad`] given one ([`SurfaceLoad::traction`]; without, a load acts with the
+/// capsule's traction); smoothed where none asks. [`Scene::build`] refuses two effects that ask
+/// one capsule for different tractions.
+///
 /// ```
 /// use eulermembrane::grid::Grid;
 /// use eulermembrane::interface::shapes::Sphere;
 /// use eulermembrane::membrane::NeoHookean;
-/// use eulermembrane::simulation::{Phase, Scene, Settings, Traction};
+/// use eulermembrane::simulation::{Elasticity, Phase, Scene, Traction};
 ///
 /// let grid = Grid::<f64>::periodic([16; 3], [0.0; 3], [1.0; 3])?;
-/// let settings = Settings { traction: Traction::from_name("sharp")?, ..Settings::default() };
 /// let mut sim = Scene::new(grid, Phase::new(1.0, 1.0)?)
 ///     .capsule(Sphere::new([0.5; 3], 0.25)?)
-///     .elasticity(NeoHookean::new(1.0)?)
-///     .settings(settings)
+///     .effect(Elasticity::new(NeoHookean::new(1.0)?).traction(Traction::from_name("sharp")?))
 ///     .build()?;
 /// sim.step(1e-3)?;
 /// // The velocity the membrane moves with: the fluid's, with the surface's tangential part.
@@ -193,11 +186,11 @@ pub enum Traction {
     /// surface `phi = 1/2` (its normal velocity stays the local one), and the in-plane force
     /// acts there, spread by the transposed interpolation
     /// ([`SurfaceExtension`](crate::membrane::SurfaceExtension)); a
-    /// [`surface force`](super::Scene::surface_force) acts there too. `G_s` is projected onto
-    /// the tangent plane after each step, as by [`GsTransport::Tangential`], whatever
-    /// [`Settings::gs_transport`] says: without it the normal part of `G_s` grows and the steps
-    /// shrink. Not in the paper. With [`MembraneCoupling::QuasiImplicit`] it needs the Krylov
-    /// predictor.
+    /// [`surface force`](super::Scene::surface_force) on the capsule acts there too. `G_s` is
+    /// projected onto the tangent plane after each step, as by [`GsTransport::Tangential`],
+    /// whatever [`Settings::gs_transport`] says: without it the normal part of `G_s` grows and
+    /// the steps shrink. Not in the paper. With [`MembraneCoupling::QuasiImplicit`] it needs
+    /// the Krylov predictor.
     Sharp,
 }
 
@@ -205,7 +198,7 @@ impl Traction {
     /// Every traction, the default first.
     pub const ALL: [Traction; 2] = [Traction::Smoothed, Traction::Sharp];
 
-    /// The short name of the examples' `--coupling` flag and their RESULT lines: `smoothed`,
+    /// The short name of the examples' `--traction` flag and their RESULT lines: `smoothed`,
     /// `sharp`.
     pub fn name(self) -> &'static str {
         match self {
@@ -349,13 +342,9 @@ impl<T: Real> Default for Settings<T> {
             normals: NormalScheme::Atanh4,
             epsilon: T::lit(0.01),
             smoothing: Smoothing::default(),
-            coupling: MembraneCoupling::default(),
             gs_transport: GsTransport::default(),
             reference_area: ReferenceArea::default(),
             strain_advection: StrainAdvection::default(),
-            bending_form: BendingForm::Divergence,
-            bending_coupling: BendingCoupling::default(),
-            traction: Traction::default(),
             storage: CapsuleStorage::default(),
         }
     }
@@ -489,14 +478,18 @@ impl<T: Real> Scene<T> {
 
     /// In-plane elasticity of every membrane with the law `law` (e.g.
     /// [`NeoHookean`](crate::membrane::NeoHookean), [`Skalak`](crate::membrane::Skalak), or
-    /// any user [`SurfaceLaw`]): [`effect`](Self::effect) with [`Elasticity::new`]. For a law
-    /// per capsule, add one [`Elasticity`] per law with [`Elasticity::only`].
+    /// any user [`SurfaceLaw`]): [`effect`](Self::effect) with [`Elasticity::new`], the default
+    /// traction and coupling. For others add the effect with them
+    /// (`.effect(Elasticity::new(law).traction(Traction::Sharp))`); for a law per capsule, one
+    /// [`Elasticity`] per law with [`Elasticity::only`].
     pub fn elasticity(self, law: impl SurfaceLaw<T> + 'static) -> Self {
         self.effect(Elasticity::new(law))
     }
 
     /// Bending of every membrane with modulus `eb` (`E_b` of (2.8)): [`effect`](Self::effect)
-    /// with [`Bending::new`] (an invalid `eb` is reported by [`build`](Self::build)).
+    /// with [`Bending::new`], the default form and coupling (an invalid `eb` is reported by
+    /// [`build`](Self::build)). For others add the effect with them
+    /// (`.effect(Bending::new(eb)?.coupling(BendingCoupling::Explicit))`).
     pub fn bending(mut self, eb: T) -> Self {
         match Bending::new(eb) {
             Ok(b) => self.effect(b),
@@ -527,7 +520,7 @@ impl<T: Real> Scene<T> {
     }
 
     /// A force per unit area `f(x, t)` on every membrane: [`effect`](Self::effect) with
-    /// [`SurfaceLoad::new`].
+    /// [`SurfaceLoad::new`] (acting with each capsule's traction).
     pub fn surface_force(self, f: impl Fn([f64; 3], f64) -> [f64; 3] + Send + Sync + 'static) -> Self {
         self.effect(SurfaceLoad::new(f))
     }
@@ -589,12 +582,16 @@ impl<T: Real> Scene<T> {
     ///   (`elasticity`, `bending`, `surface_force`, `contact`) in a scene without capsules, or
     ///   whose `only` list is empty or names a capsule the scene lacks; `elasticity` with a law
     ///   whose small-strain moduli are not positive, `law` with stress at rest or without
-    ///   finite derivatives there; `traction` [`Traction::Sharp`] with the quasi-implicit
-    ///   coupling and the SOR predictor; `normals` other than `atanh2`/`atanh4` with
-    ///   [`BendingForm::EnergyGradient`]; a [`Contact`](super::Contact)'s `range_cells` beyond
-    ///   what the profiles resolve; a user effect's own errors;
+    ///   finite derivatives there; `traction`: an elasticity with [`Traction::Sharp`] and the
+    ///   quasi-implicit coupling under the SOR predictor; `normals` other than
+    ///   `atanh2`/`atanh4` with a bending of
+    ///   [`BendingForm::EnergyGradient`](crate::membrane::BendingForm::EnergyGradient); a
+    ///   [`Contact`](super::Contact)'s `range_cells` beyond what the profiles resolve; a user
+    ///   effect's own errors;
     /// - `elasticity` or `bending`: two such effects acting on one capsule (their forces would
     ///   add up), naming the capsule;
+    /// - `traction`: two effects that ask one capsule for different tractions
+    ///   ([`Effect::requested_traction`]), naming the capsule and the effects;
     /// - `dt_limit`: an effect whose [`Effect::dt_limit`] is not finite and `> 0`, naming the
     ///   effect;
     /// - `capsule`, naming it: a shape of another dimension than the grid (2 on a grid with one
@@ -650,6 +647,8 @@ impl<T: Real> Scene<T> {
                 }
             }
         }
+        let tractions =
+            (0..self.capsules.len()).map(|c| capsule_traction(&effects, c)).collect::<Result<Vec<_>>>()?;
         effects_dt_limit(&effects, &setup)?;
         let dim = if self.grid.is_2d() { 2 } else { 3 };
         for (c, s) in self.capsules.iter().enumerate() {
@@ -665,11 +664,34 @@ impl<T: Real> Scene<T> {
             self.grid,
             self.outside,
             self.inside,
-            self.capsules.into_iter().zip(windows).collect(),
+            self.capsules.into_iter().zip(windows).zip(tractions).map(|((s, w), t)| (s, w, t)).collect(),
             effects,
             self.settings,
             self.strategies,
         )
+    }
+}
+
+/// The traction of capsule `c`: the one the effects acting on it ask for
+/// ([`Effect::requested_traction`]), [`Traction::Smoothed`] where none asks.
+///
+/// # Errors
+/// [`Error::InvalidParameter`] naming `traction` where two of them ask for different ones.
+fn capsule_traction<T: Real>(effects: &[Box<dyn Effect<T>>], c: usize) -> Result<Traction> {
+    let mut asked =
+        effects.iter().filter(|e| e.acts_on(c)).filter_map(|e| Some((e.name(), e.requested_traction()?)));
+    let Some((first, traction)) = asked.next() else { return Ok(Traction::default()) };
+    match asked.find(|&(_, t)| t != traction) {
+        None => Ok(traction),
+        Some((other, t)) => Err(Error::invalid(
+            "traction",
+            format!(
+                "{first} asks capsule {c} for the {} traction, {other} for the {}",
+                traction.name(),
+                t.name()
+            ),
+            "one traction a capsule: the same Traction for every effect on it",
+        )),
     }
 }
 
