@@ -4,9 +4,8 @@
 //! field lives on the capsule's box ([`Window`]) and its grid; the whole grid's fields (the
 //! velocity) are read through it.
 
-use super::effect::{LevelChoice, MembraneView, Needs};
-use super::effects::reference_integral;
-use super::scene::{ReferenceArea, Settings, Traction, TransportMaker};
+use super::settings::{ReferenceArea, Settings, Traction, TransportMaker};
+use super::view::{LevelChoice, MembraneView, Needs, reference_integral};
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::interface::geometry::{PhiRange, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};

@@ -112,7 +112,8 @@
 //! so films thin slowly at this resolution; the contact is the guard for when they do.
 
 use super::Simulation;
-use super::effect::{Capsules, Effect, EnergyRole, LevelChoice, MembraneView, Setup, StepState};
+use super::effect::{Capsules, Effect, EnergyRole, Setup, StepState};
+use super::view::{LevelChoice, MembraneView};
 use crate::error::positive;
 use crate::grid::{Grid, SymField, VectorField};
 use crate::interface::advect::{characteristic_length, default_tiny};

@@ -3,16 +3,16 @@
 //! uniform [`BodyForce`]. Each acts on every capsule or on the ones
 //! named with `only` (a mixed suspension: stiff and soft capsules, red cells with another law).
 
-use super::effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
-use super::scene::{BendingCoupling, MembraneCoupling, Traction};
+use super::effect::{Capsules, Effect, EnergyRole, Setup, StepState};
+use super::settings::{BendingCoupling, MembraneCoupling, Traction};
 use super::stability::{bending_dt_limit, membrane_dt_limit};
+use super::view::{MembraneView, Needs, reference_integral};
 use crate::error::positive;
 use crate::fluid::{BodyForce, Forcing, ImplicitTerm, PredictorSolver};
-use crate::grid::ops::cell_vector;
-use crate::grid::{Grid, SymField, VectorField};
+use crate::grid::{Grid, VectorField};
 use crate::interface::NormalScheme;
 use crate::membrane::law::check_stress_free;
-use crate::membrane::stress::{SurfaceKinematics, surface_kinematics};
+use crate::membrane::stress::SurfaceKinematics;
 use crate::membrane::{
     BendingForm, BendingImplicit, BendingStress, InPlaneElasticity, SurfaceExtension, SurfaceLaw,
     small_strain_moduli,
@@ -45,26 +45,6 @@ impl<T: Real> SurfaceLaw<T> for SharedLaw<T> {
     fn derivatives(&self, c1: T, c2: T) -> ([T; 2], [T; 3]) {
         self.0.derivatives(c1, c2)
     }
-}
-
-/// `sum delta q / j_s h^3` over the band of `m`: the integral of `q` (a function of the
-/// surface kinematics of `gs`) over the membrane's reference area (`dA_R = dA / j_s`,
-/// `j_s = sqrt(c2)`; cells with `c2 <= 0` left out).
-pub(crate) fn reference_integral<T: Real>(
-    grid: &Grid<T>,
-    m: &MembraneView<'_, T>,
-    gs: &SymField<T>,
-    q: impl Fn(&SurfaceKinematics<T>) -> T,
-) -> f64 {
-    let mut s = 0.0;
-    for &idx in m.band.cells() {
-        let n = cell_vector(m.normal, idx);
-        let k = surface_kinematics(&gs.get(idx), &n);
-        if k.c2 > T::zero() {
-            s += (m.delta.data[idx] * q(&k) / k.c2.sqrt()).f64();
-        }
-    }
-    s * grid.cell_volume().f64()
 }
 
 /// Adds the implicit term `term(work, membrane)` of each capsule `(c, work)` of `capsules` to

@@ -66,18 +66,22 @@ pub mod effects;
 pub mod observer;
 mod output;
 mod scene;
+mod settings;
 pub mod stability;
 pub mod timestep;
+mod view;
 
 pub use contact::{Contact, MAX_RANGE_CELLS, min_gap_cells};
-pub use effect::{Capsules, Effect, EnergyRole, MembraneView, Needs, Setup, StepState};
+pub use effect::{Capsules, Effect, EnergyRole, Setup, StepState};
 pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
 pub use observer::{Observer, RunSummary};
-pub use scene::{
+pub use scene::Scene;
+pub use settings::{
     BOX_MIN_ROOM, BendingCoupling, CapsuleStorage, GsTransport, MembraneCoupling, Phase, ReferenceArea,
-    Scene, Settings, Traction, TransportMaker, box_margin,
+    Settings, Traction, TransportMaker, box_margin,
 };
 pub use timestep::{AdaptiveDt, FixedDt, TimeStepping};
+pub use view::{MembraneView, Needs};
 
 use crate::diagnostics::{
     DissipationForm, EnergyState, StepIntegrals, body_force_power, kinetic_energy, viscous_dissipation,
@@ -91,9 +95,9 @@ use crate::membrane::Band;
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
 use capsule::Capsule;
-use effect::LevelChoice;
 use effects::{EffectForcing, EffectImplicit};
 use scene::Strategies;
+use view::LevelChoice;
 
 pub use crate::fluid::FlowStepper;
 
