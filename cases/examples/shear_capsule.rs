@@ -8,6 +8,7 @@
 //! drift, predictor iterations, dt, the membrane's stored energy `E` and the work `W` the fluid
 //! has done on it; written as the run goes, so a failed run leaves it), the plot
 //! `deformation.svg` of `D(t)` with the reference curves (like Fig. 10, or Fig. 11 with bending),
+//! `energy.svg` of `E(t)` and `W(t)` (the energy identity),
 //! ParaView snapshots (`shear.pvd`); ends with `RESULT ca=... n=... eb_prime=...
 //! max_curve_err=... d_steady=... angle_deg=... d_ref=... rel_err=... steps=... wall_s=...
 //! mean_dt=... t_end=... s0_ratio=...`. The headline, `max_curve_err`, is the largest
@@ -141,6 +142,14 @@ fn run() -> BoxResult<()> {
     fig.line(&t, &o.samples.iter().map(|s| s.d).collect::<Vec<_>>(), "present (full Eulerian)");
     add_references(&mut fig, refdir.clone(), base.ca, base.eb_prime, false);
     fig.save(out.join("deformation.svg"))?;
+    // The energy identity: without losses the stored energy follows the work received.
+    let mut energy =
+        Figure::new(format!("Energy identity, Ca = {}, N = {n}", base.ca)).x_label("t").y_label("energy");
+    energy.line(&t, &o.samples.iter().map(|s| s.elastic_energy).collect::<Vec<_>>(), "stored energy E");
+    energy
+        .line(&t, &o.samples.iter().map(|s| s.membrane_work).collect::<Vec<_>>(), "work received W")
+        .style(LineStyle::Dashed);
+    energy.save(out.join("energy.svg"))?;
     report(&base, &o, refdir, numerics.terms.traction);
     Ok(())
 }
