@@ -37,8 +37,11 @@
 //! Crank–Nicolson), `--t-end` (6), `--bending` (`E_b'`, 0 for none),
 //! `--lambda` (viscosity ratio, 1), `--vtk-every` (1, time units; 0 for none), `--f32`,
 //! `--sweep`, `--gs-transport paper|tangential|frame|both` (`Settings::gs_transport`, default
-//! `paper`), `--conserve-area` (`Settings::reference_area`),
+//! `paper`), `--strain-advection upwind3|upwind5` (`Settings::strain_advection`, default the
+//! paper's `upwind3`), `--conserve-area` (`Settings::reference_area`),
 //! `--bending-form divergence|energy` (`Bending::form`),
+//! `--membrane-coupling quasi-implicit|explicit` (`Elasticity::coupling`, default the paper's
+//! quasi-implicit stress (2.32)-(2.35)),
 //! `--bending-coupling semi-implicit|explicit` (`Bending::coupling`, default
 //! semi-implicit; `--bending-alpha`, 1, its weight `alpha`),
 //! `--traction sharp|smoothed` (`Elasticity::traction`, default `sharp`: it holds the membrane's
@@ -61,8 +64,10 @@ use eulermembrane_cases as common;
 use common::shear::{self, Energy, ShearCase, ShearLaw, ShearOutcome, Steps};
 use common::{Args, BoxResult, Terms, num, reference_dir, result};
 use eulermembrane::fluid::ViscousScheme;
-use eulermembrane::membrane::BendingForm;
-use eulermembrane::simulation::{AdaptiveDt, GsTransport, ReferenceArea, Settings, Traction};
+use eulermembrane::membrane::{BendingForm, StrainAdvection};
+use eulermembrane::simulation::{
+    AdaptiveDt, GsTransport, MembraneCoupling, ReferenceArea, Settings, Traction,
+};
 use eulermembrane_cases::csv::{CsvWriter, read_xy};
 use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;
@@ -166,6 +171,7 @@ fn steps_text(case: &ShearCase) -> String {
 struct Numerics {
     terms: Terms,
     gs_transport: GsTransport,
+    strain_advection: StrainAdvection,
     reference_area: ReferenceArea,
     viscous: ViscousScheme,
     epsilon: f64,
@@ -181,9 +187,25 @@ impl Numerics {
                 traction: args.traction(DEFAULT_TRACTION)?,
                 bending_form: BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?,
                 bending_coupling: args.bending_coupling()?,
-                ..Terms::default()
+                coupling: match args.get("membrane-coupling", "quasi-implicit".to_string()).as_str() {
+                    "quasi-implicit" => MembraneCoupling::QuasiImplicit,
+                    "explicit" => MembraneCoupling::Explicit,
+                    other => {
+                        return Err(format!(
+                            "--membrane-coupling: {other:?}, expected quasi-implicit or explicit"
+                        )
+                        .into());
+                    }
+                },
             },
             gs_transport: GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?,
+            strain_advection: match args.get("strain-advection", "upwind3".to_string()).as_str() {
+                "upwind3" => StrainAdvection::Upwind3,
+                "upwind5" => StrainAdvection::Upwind5,
+                other => {
+                    return Err(format!("--strain-advection: {other:?}, expected upwind3 or upwind5").into());
+                }
+            },
             reference_area: if args.flag("conserve-area") {
                 ReferenceArea::Conserved
             } else {
@@ -199,6 +221,7 @@ impl Numerics {
     fn settings<T: eulermembrane::Real>(&self) -> Settings<T> {
         let mut s = Settings {
             gs_transport: self.gs_transport,
+            strain_advection: self.strain_advection,
             reference_area: self.reference_area,
             epsilon: T::lit(self.epsilon),
             ..Settings::default()
