@@ -65,9 +65,7 @@ use common::shear::{self, Energy, ShearCase, ShearLaw, ShearOutcome, Steps};
 use common::{Args, BoxResult, Terms, num, reference_dir, result};
 use eulermembrane::fluid::ViscousScheme;
 use eulermembrane::membrane::{BendingForm, StrainAdvection};
-use eulermembrane::simulation::{
-    AdaptiveDt, GsTransport, MembraneCoupling, ReferenceArea, Settings, Traction,
-};
+use eulermembrane::simulation::{AdaptiveDt, GsTransport, ReferenceArea, Settings, Traction};
 use eulermembrane_cases::csv::{CsvWriter, read_xy};
 use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;
@@ -187,25 +185,10 @@ impl Numerics {
                 traction: args.traction(DEFAULT_TRACTION)?,
                 bending_form: BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?,
                 bending_coupling: args.bending_coupling()?,
-                coupling: match args.get("membrane-coupling", "quasi-implicit".to_string()).as_str() {
-                    "quasi-implicit" => MembraneCoupling::QuasiImplicit,
-                    "explicit" => MembraneCoupling::Explicit,
-                    other => {
-                        return Err(format!(
-                            "--membrane-coupling: {other:?}, expected quasi-implicit or explicit"
-                        )
-                        .into());
-                    }
-                },
+                coupling: args.membrane_coupling()?,
             },
             gs_transport: GsTransport::from_name(&args.get("gs-transport", "paper".to_string()))?,
-            strain_advection: match args.get("strain-advection", "upwind3".to_string()).as_str() {
-                "upwind3" => StrainAdvection::Upwind3,
-                "upwind5" => StrainAdvection::Upwind5,
-                other => {
-                    return Err(format!("--strain-advection: {other:?}, expected upwind3 or upwind5").into());
-                }
-            },
+            strain_advection: args.strain_advection()?,
             reference_area: if args.flag("conserve-area") {
                 ReferenceArea::Conserved
             } else {

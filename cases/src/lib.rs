@@ -20,7 +20,7 @@
 //!   `cases/reference` ([`reference_dir`]).
 #![warn(missing_docs)]
 
-use eulermembrane::membrane::{BendingForm, SurfaceLaw};
+use eulermembrane::membrane::{BendingForm, StrainAdvection, SurfaceLaw};
 use eulermembrane::simulation::{Bending, BendingCoupling, Elasticity, MembraneCoupling, Traction};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -135,6 +135,32 @@ impl Args {
             "explicit" => Ok(BendingCoupling::Explicit),
             "semi-implicit" => Ok(BendingCoupling::SemiImplicit { alpha: self.get("bending-alpha", 1.0) }),
             other => Err(format!("--bending-coupling {other}: explicit or semi-implicit").into()),
+        }
+    }
+
+    /// `Elasticity::coupling` from `--membrane-coupling quasi-implicit|explicit` (default
+    /// quasi-implicit, the library's and the paper's).
+    ///
+    /// # Errors
+    /// Any other coupling name.
+    pub fn membrane_coupling(&self) -> BoxResult<MembraneCoupling> {
+        match self.get("membrane-coupling", "quasi-implicit".to_string()).as_str() {
+            "quasi-implicit" => Ok(MembraneCoupling::QuasiImplicit),
+            "explicit" => Ok(MembraneCoupling::Explicit),
+            other => Err(format!("--membrane-coupling {other}: quasi-implicit or explicit").into()),
+        }
+    }
+
+    /// `Settings::strain_advection` from `--strain-advection upwind3|upwind5` (default upwind3,
+    /// the library's and the paper's).
+    ///
+    /// # Errors
+    /// Any other scheme name.
+    pub fn strain_advection(&self) -> BoxResult<StrainAdvection> {
+        match self.get("strain-advection", "upwind3".to_string()).as_str() {
+            "upwind3" => Ok(StrainAdvection::Upwind3),
+            "upwind5" => Ok(StrainAdvection::Upwind5),
+            other => Err(format!("--strain-advection {other}: upwind3 or upwind5").into()),
         }
     }
 
