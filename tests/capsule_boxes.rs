@@ -44,7 +44,7 @@ fn max_difference(a: &Field<f64>, b: &Field<f64>, g: &Grid<f64>) -> f64 {
 
 #[test]
 fn a_boxed_capsule_follows_the_whole_grid_capsule_across_the_seam() {
-    for traction in [Traction::Smoothed, Traction::Sharp] {
+    for traction in Traction::ALL {
         let mut whole = carried(CapsuleStorage::Whole, traction);
         let mut boxed = carried(CapsuleStorage::Boxed { room: 1.2 }, traction);
         let w0 = boxed.window(0).unwrap().clone();

@@ -214,6 +214,13 @@ fn bad_scenes_are_refused() {
     let e = Scene::new(box16(), fluid()).capsule(sphere()).effect(sharp()).effect(smooth).build();
     assert!(matches!(e, Err(Error::InvalidParameter { name: "elasticity", .. })));
     assert!(matches!(Traction::from_name("sharpest"), Err(Error::InvalidParameter { name: "traction", .. })));
+    for t in Traction::ALL {
+        assert_eq!(Traction::from_name(t.name()).unwrap(), t);
+    }
+    // The re-sampled sharp traction has the sharp one's quasi-implicit term.
+    let resampled = Elasticity::new(NeoHookean::new(1.0).unwrap()).traction(Traction::SharpResampled);
+    let e = Scene::new(box16(), fluid()).capsule(sphere()).effect(resampled).settings(settings).build();
+    assert!(matches!(e, Err(Error::InvalidParameter { name: "traction", .. })));
     // epsilon outside (0, 1).
     for eps in [0.0, 1.0, -0.1, f64::NAN] {
         let settings = Settings { epsilon: eps, ..Settings::default() };

@@ -675,7 +675,7 @@ fn shear_table(out: &Path, name: &str, list: &[Job], done: &HashMap<String, Meas
             m.value,
             m.error,
             m.curve_error,
-            if s.traction == Traction::Sharp { 1.0 } else { 0.0 },
+            if s.traction.is_sharp() { 1.0 } else { 0.0 },
             m.drift,
             m.iterations,
             m.steps as f64,

@@ -44,9 +44,10 @@
 //! quasi-implicit stress (2.32)-(2.35)),
 //! `--bending-coupling semi-implicit|explicit` (`Bending::coupling`, default
 //! semi-implicit; `--bending-alpha`, 1, its weight `alpha`),
-//! `--traction sharp|smoothed` (`Elasticity::traction`, default `sharp`: it holds the membrane's
-//! reference area and cuts the overshoot at 8 cells per radius to a third; `smoothed` is the
-//! paper's and the library's default),
+//! `--traction sharp|smoothed|sharp-resampled` (`Elasticity::traction`, default `sharp`: it holds
+//! the membrane's reference area and cuts the overshoot at 8 cells per radius to a third;
+//! `smoothed` is the paper's and the library's default; `sharp-resampled` gives the shell's outer
+//! layers the surface's `G_s`),
 //! `--law neo_hookean|tension_field` (the membrane: the neo-Hookean law (2.5), default, or its
 //! tension-field relaxation `membrane::TensionField`, a membrane that wrinkles instead of
 //! carrying compression),

@@ -164,7 +164,7 @@ impl Args {
         }
     }
 
-    /// `Elasticity::traction` from `--traction smoothed|sharp` (default `default`).
+    /// `Elasticity::traction` from `--traction smoothed|sharp|sharp-resampled` (default `default`).
     ///
     /// # Errors
     /// Any other traction name.

@@ -113,6 +113,8 @@ pub(crate) struct Capsule<T: Real> {
     /// The membrane velocity map of [`Traction::Sharp`], built on the level of the step being
     /// computed (`None` with the smoothed traction).
     pub(crate) extension: Option<SurfaceExtension<T>>,
+    /// The traction the effects asked for.
+    traction: Traction,
 }
 
 /// `phi` range where the geometry (normals, `delta`) is evaluated: wide enough for the
@@ -198,7 +200,7 @@ impl<T: Real> Capsule<T> {
             false => None,
         };
         let extension = match traction {
-            Traction::Sharp => {
+            Traction::Sharp | Traction::SharpResampled => {
                 let mut e = SurfaceExtension::new(grid, settings.advection.beta)?;
                 e.rebuild(&cur.band, &cur.phi, &cur.normal)?;
                 Some(e)
@@ -206,19 +208,17 @@ impl<T: Real> Capsule<T> {
             Traction::Smoothed => None,
         };
         let transport = make(grid, if curvature { Carried::PhiAndCurvature } else { Carried::Phi })?;
-        let mut cap = Capsule { boxed, cur, next, gs, transport, strain, reference_target: None, extension };
+        let mut cap =
+            Capsule { boxed, cur, next, gs, transport, strain, reference_target: None, extension, traction };
         if settings.reference_area == ReferenceArea::Conserved {
             cap.reference_target = cap.reference_area();
         }
         Ok(cap)
     }
 
-    /// Its traction: sharp where it carries the membrane velocity map.
+    /// Its traction (it carries the membrane velocity map where sharp).
     pub(crate) fn traction(&self) -> Traction {
-        match self.extension {
-            Some(_) => Traction::Sharp,
-            None => Traction::Smoothed,
-        }
+        self.traction
     }
 
     /// The membrane at the current level.

@@ -244,7 +244,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         }
         // A law with stress at rest would drive a capsule in its reference state.
         check_stress_free(self.law())?;
-        if self.traction == Traction::Sharp
+        if self.traction.is_sharp()
             && self.coupling == MembraneCoupling::QuasiImplicit
             && matches!(setup.settings.flow.predictor, PredictorSolver::Sor(_))
         {

@@ -454,6 +454,7 @@ impl<T: Real> Simulation<T> {
         }
         self.flow.commit()?;
         for cap in &mut self.capsules {
+            let resampled = cap.traction() == Traction::SharpResampled;
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
                 strain.commit(&cap.next.band, &cap.next.normal, gs)?;
                 // The sharp membrane is one surface: G_s has no normal part (2.18).
@@ -463,6 +464,11 @@ impl<T: Real> Simulation<T> {
                         let p = projector(&cell_vector(n, idx));
                         gs.set(idx, &project(&p, &gs.get(idx)));
                     }
+                }
+                // The re-sampled sharp shell carries the surface's deformation in its outer
+                // layers too.
+                if resampled && let Some(x) = cap.extension.as_mut() {
+                    x.resample_strain(&cap.next.band, &cap.next.phi, &cap.next.normal, gs)?;
                 }
             }
             cap.commit();

@@ -187,19 +187,36 @@ pub enum Traction {
     /// the steps shrink. Not in the paper. With [`MembraneCoupling::QuasiImplicit`] it needs
     /// the Krylov predictor.
     Sharp,
+    /// [`Sharp`](Self::Sharp), and the layers deeper than
+    /// [`RESAMPLE_DEPTH`](crate::membrane::extension::RESAMPLE_DEPTH) cells take the `G_s` of
+    /// their closest surface point after each step
+    /// ([`SurfaceExtension::resample_strain`](crate::membrane::SurfaceExtension::resample_strain)):
+    /// the whole shell carries the surface's deformation as it carries its velocity. In shear
+    /// it removes the energy that the crushed inner layers at the tips create (no growth to
+    /// `t` = 12 at Ca = 0.05, 8 cells per radius) and halves the excess `D` at Ca = 0.1 and 0.2;
+    /// the re-sampling is not energy-neutral (the squashed sphere's energy error at N = 64 is
+    /// 3.3e-2 against 6.6e-3 with `Sharp`). Not in the paper; docs/validation/shear_capsule.md.
+    SharpResampled,
 }
 
 impl Traction {
     /// Every traction, the default first.
-    pub const ALL: [Traction; 2] = [Traction::Smoothed, Traction::Sharp];
+    pub const ALL: [Traction; 3] = [Traction::Smoothed, Traction::Sharp, Traction::SharpResampled];
 
     /// The short name of the examples' `--traction` flag and their RESULT lines: `smoothed`,
-    /// `sharp`.
+    /// `sharp`, `sharp-resampled`.
     pub fn name(self) -> &'static str {
         match self {
             Traction::Smoothed => "smoothed",
             Traction::Sharp => "sharp",
+            Traction::SharpResampled => "sharp-resampled",
         }
+    }
+
+    /// Whether the membrane velocity and force are those of the surface (`Sharp`,
+    /// `SharpResampled`).
+    pub fn is_sharp(self) -> bool {
+        matches!(self, Traction::Sharp | Traction::SharpResampled)
     }
 
     /// The traction of a [`name`](Self::name).
@@ -210,7 +227,7 @@ impl Traction {
         Self::ALL
             .into_iter()
             .find(|t| t.name() == s)
-            .ok_or_else(|| Error::invalid("traction", s, "smoothed or sharp"))
+            .ok_or_else(|| Error::invalid("traction", s, "smoothed, sharp or sharp-resampled"))
     }
 }
 
