@@ -24,7 +24,7 @@
 //!
 //! Flags: `--n` (`64,128`), `--k` (`0,1,4,16`), `--steps` (10), `--warm` (3), `--room` (1.2,
 //! `CapsuleStorage::Boxed { room }`; 0 keeps every capsule on the whole grid),
-//! `--cells-per-radius` (8), `--traction sharp|smoothed` (`Elasticity::traction`, default the
+//! `--cells-per-radius` (8), `--traction sharp|smoothed|sharp-resampled` (`Elasticity::traction`, default the
 //! library's), `--out DIR` (`out/capsule_cost`).
 //!
 //! Run: `cargo run --release -p eulermembrane-cases --example capsule_cost` (a few minutes on

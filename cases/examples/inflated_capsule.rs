@@ -12,7 +12,7 @@
 //! laws) and `pressure.svg`.
 //!
 //! Flags: `--n` (64: 16 cells per radius), `--lambda` (1.05), `--steps` (40), `--dt` (`h / 4`),
-//! `--traction smoothed|sharp` (`Elasticity::traction`, smoothed), `--beta B` (1, the MTHINC
+//! `--traction smoothed|sharp|sharp-resampled` (`Elasticity::traction`, smoothed), `--beta B` (1, the MTHINC
 //! sharpness of the profile, `Settings::with_beta`), `--out DIR`
 //! (`out/inflated_capsule`).
 //!

@@ -47,7 +47,7 @@
 //! (`Settings::gs_transport`, default `paper`), `--bending-coupling semi-implicit|explicit`
 //! (`Bending::coupling`, default semi-implicit; the paper's and the figures of
 //! `docs/validation/red_cells.md` are explicit; `--bending-alpha`, 1),
-//! `--traction smoothed|sharp` (`Elasticity::traction`, default the paper's `smoothed`; the key
+//! `--traction smoothed|sharp|sharp-resampled` (`Elasticity::traction`, default the paper's `smoothed`; the key
 //! `traction` of the `single` and `two` RESULT lines), `--epsilon E` (`Settings::epsilon`, the
 //! band `delta h >= E` outside which `G_s` is re-set to `P`; 0.01, the paper's range being
 //! 0.01-0.1), `--vtk-every` (0.5; 0 none), `--out DIR` (`out/rbc_channel`).

@@ -39,7 +39,7 @@
 //! 0.7: 4.50e-3 tangential, 1.21e-2 paper, 8.73e-3 frame, 1.61e-3 both), `--conserve-area`
 //! (`ReferenceArea::Conserved`), `--linear-load` (the load profile
 //! `clamp((z - 0.25) / R, -1, 1)` instead of `sgn(z - 0.25)`, a diagnostic),
-//! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--traction smoothed|sharp`
+//! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--traction smoothed|sharp|sharp-resampled`
 //! (`Elasticity::traction`, smoothed), `--vtk-every S` (0.25, in
 //! time units; 0 for none), `--convergence`, `--max-n N` (128), `--out DIR`
 //! (`out/squashed_sphere`).

@@ -43,7 +43,7 @@
 //! `--contact` (50; 0 for none), `--contact-range` (2 cells), `--cfl` (0.3), `--max-dt` (0.05),
 //! `--sample-every` (0.05), `--room R` (each capsule on a box that follows it,
 //! `CapsuleStorage::Boxed { room: R }`; 0, the default, keeps every capsule on the whole grid),
-//! `--traction sharp|smoothed` (`Elasticity::traction`, default `sharp`,
+//! `--traction sharp|smoothed|sharp-resampled` (`Elasticity::traction`, default `sharp`,
 //! as `shear_capsule`), `--vtk-every` (1, time units; 0 for none), `--out DIR`
 //! (`out/suspension`).
 //!
