@@ -224,9 +224,10 @@ impl<T: Real> SurfaceExtension<T> {
                     let (Some(at), Some(surface)) = (Point::new(grid, &x), Point::new(grid, &xg)) else {
                         return;
                     };
-                    if (0..3)
-                        .all(|d| trilinear(grid, d, &surface).is_some() && trilinear(grid, d, &at).is_some())
-                    {
+                    if (0..3).all(|d| {
+                        trilinear(grid, Some(d), &surface).is_some()
+                            && trilinear(grid, Some(d), &at).is_some()
+                    }) {
                         *row = Row { face: m, at, surface, n };
                     }
                 });
@@ -432,27 +433,12 @@ fn resampled_at<T: Real>(
     depth: T,
 ) -> Option<Sym<T>> {
     let xg: [T; 3] = std::array::from_fn(|d| x[d] - s * n[d]);
-    let p = Point::new(grid, &xg)?;
-    let dims = grid.n();
-    // A corner's interior coordinate: wrapped on a periodic axis, none beyond a wall.
-    let corner = |a: usize, i: isize| -> Option<isize> {
-        let n = dims[a] as isize;
-        if grid.is_periodic(a) { Some(i.rem_euclid(n)) } else { (0..n).contains(&i).then_some(i) }
-    };
+    let stencil = trilinear(grid, None, &Point::new(grid, &xg)?)?;
     let mut sum = [T::zero(); 6];
     let mut weight = T::zero();
-    for k in 0..8 {
-        let o = [k & 1, (k >> 1) & 1, (k >> 2) & 1];
-        let w = (0..3).fold(T::one(), |w, a| w * if o[a] == 1 { p.t[a] } else { T::one() - p.t[a] });
-        let (Some(i), Some(j), Some(l)) = (
-            corner(0, p.base[0] + o[0] as isize),
-            corner(1, p.base[1] + o[1] as isize),
-            corner(2, p.base[2] + o[2] as isize),
-        ) else {
-            continue;
-        };
-        let at = grid.idx(i, j, l);
-        // Band cells only.
+    for (at, w) in stencil {
+        // Band cells only, read at their interior storage index (the stencil's periodic
+        // corners are wrapped already; a ghost across a wall is in no band).
         let Some(j) = band.position(at).filter(|&q| q < band.len()).map(|q| band.cells()[q]) else {
             continue;
         };
@@ -472,7 +458,7 @@ fn resampled_at<T: Real>(
 /// `v_c(x_Γ) − n_c n·(v(x_Γ) − v(x_f))` of one row (`v_c(x_f)` without a normal).
 #[inline]
 fn row_value<T: Real>(grid: &Grid<T>, v: &VectorField<T>, c: usize, r: &Row<T>) -> T {
-    let interp = |d: usize, x: &Point<T>| match trilinear(grid, d, x) {
+    let interp = |d: usize, x: &Point<T>| match trilinear(grid, Some(d), x) {
         Some(s) => s.iter().fold(T::zero(), |acc, &(i, w)| acc + w * v.c[d].data[i]),
         None => T::zero(),
     };
@@ -499,14 +485,14 @@ fn spread_row<T: Real>(grid: &Grid<T>, c: usize, r: &Row<T>, x: T, out: &mut Vec
     for d in 0..3 {
         let to_surface = if d == c { T::one() } else { T::zero() } - r.n[c] * r.n[d];
         let to_face = r.n[c] * r.n[d];
-        if let Some(s) = trilinear(grid, d, &r.surface) {
+        if let Some(s) = trilinear(grid, Some(d), &r.surface) {
             for (i, wi) in s {
                 out.c[d].data[i] += x * to_surface * wi;
             }
         }
         if d == c {
             out.c[c].data[r.face] += x * to_face;
-        } else if let Some(s) = trilinear(grid, d, &r.at) {
+        } else if let Some(s) = trilinear(grid, Some(d), &r.at) {
             for (i, wi) in s {
                 out.c[d].data[i] += x * to_face * wi;
             }
@@ -514,10 +500,11 @@ fn spread_row<T: Real>(grid: &Grid<T>, c: usize, r: &Row<T>, x: T, out: &mut Vec
     }
 }
 
-/// The trilinear stencil of component `d` at the point `p` (periodic axes wrapped to the
-/// interior; `None` if a wall axis would leave the stored range).
+/// The trilinear stencil at the point `p` of the values of velocity component `d` (`Some`) or
+/// of cell-centred values (`None`) (periodic axes wrapped to the interior; `None` if a wall
+/// axis would leave the stored range).
 #[inline]
-fn trilinear<T: Real>(grid: &Grid<T>, d: usize, p: &Point<T>) -> Option<[(usize, T); 8]> {
+fn trilinear<T: Real>(grid: &Grid<T>, d: Option<usize>, p: &Point<T>) -> Option<[(usize, T); 8]> {
     let (n, st) = (grid.n(), grid.strides());
     let half = T::lit(0.5);
     let g = GHOST as isize;
@@ -532,7 +519,7 @@ fn trilinear<T: Real>(grid: &Grid<T>, d: usize, p: &Point<T>) -> Option<[(usize,
             continue;
         }
         // Component d sits half a cell lower along d than the cell centres.
-        let (i0, t) = match (a == d, p.t[a] < half) {
+        let (i0, t) = match (Some(a) == d, p.t[a] < half) {
             (false, _) => (p.base[a], p.t[a]),
             (true, true) => (p.base[a], p.t[a] + half),
             (true, false) => (p.base[a] + 1, p.t[a] - half),
