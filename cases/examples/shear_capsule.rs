@@ -44,10 +44,11 @@
 //! quasi-implicit stress (2.32)-(2.35)),
 //! `--bending-coupling semi-implicit|explicit` (`Bending::coupling`, default
 //! semi-implicit; `--bending-alpha`, 1, its weight `alpha`),
-//! `--traction sharp|smoothed|sharp-resampled` (`Elasticity::traction`, default `sharp`: it holds
-//! the membrane's reference area and cuts the overshoot at 8 cells per radius to a third;
-//! `smoothed` is the paper's and the library's default; `sharp-resampled` gives the shell's outer
-//! layers the surface's `G_s`),
+//! `--traction sharp-resampled|sharp|smoothed` (`Elasticity::traction`, default
+//! `sharp-resampled`: the membrane moves and pulls as one surface, its shell's outer layers
+//! carry the surface's `G_s` and pass their stress to it; it cuts the paper's overshoot at 8
+//! cells per radius to a third and runs to `t` = 12; `sharp` leaves the outer layers their own
+//! `G_s`; `smoothed` is the paper's and the library's default),
 //! `--law neo_hookean|tension_field` (the membrane: the neo-Hookean law (2.5), default, or its
 //! tension-field relaxation `membrane::TensionField`, a membrane that wrinkles instead of
 //! carrying compression),
@@ -56,9 +57,9 @@
 //! `--box LX,LY,LZ` (the box in radii, `8,4,8`: the paper's; each a multiple of `8/N`),
 //! `--reference DIR`, `--out DIR` (`out/shear_capsule`).
 //!
-//! Run: `cargo run --release --example shear_capsule` (N = 48, 6 cells per radius: under a
-//! minute, `max_curve_err` 0.073; `--n 64` for 8 cells per radius, about two minutes, 0.057;
-//! `--n 32` for 4, 15 s, 0.227).
+//! Run: `cargo run --release --example shear_capsule` (N = 48, 6 cells per radius: about a
+//! minute, `max_curve_err` 0.060; `--n 64` for 8 cells per radius, about three minutes, 0.056;
+//! `--n 32` for 4, 15 s, 0.072).
 
 use eulermembrane_cases as common;
 
@@ -73,7 +74,7 @@ use std::path::Path;
 
 const SWEEP: [f64; 5] = [0.0125, 0.025, 0.05, 0.1, 0.2];
 /// The membrane traction without `--traction` (docs/validation/shear_capsule.md says why).
-const DEFAULT_TRACTION: &str = "sharp";
+const DEFAULT_TRACTION: &str = "sharp-resampled";
 
 fn main() {
     common::exit_on_error(run());

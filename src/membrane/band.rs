@@ -465,6 +465,26 @@ impl<T: Real> Band<T> {
         self.generation
     }
 
+    /// `Ok` if `generation`, recorded by `component` when it was `done` ("evaluated", "built")
+    /// on a band, is this band's: [`Error::Unsupported`] otherwise (another band, a rebuild
+    /// since, or 0 for a failed or missing evaluation).
+    pub(crate) fn check_generation(
+        &self,
+        component: &'static str,
+        generation: u64,
+        done: &str,
+    ) -> Result<()> {
+        if generation == 0 || generation != self.generation {
+            return Err(Error::Unsupported {
+                component,
+                detail: format!(
+                    "not {done} on this band (or the band was rebuilt since): call it after Band::rebuild"
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// Checks that `grid` is the grid of this band.
     pub(crate) fn matches(&self, grid: &Grid<T>) -> Result<()> {
         self.check_grid(grid)

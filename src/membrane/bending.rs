@@ -400,14 +400,7 @@ impl<T: Real> BendingStress<T> {
     /// [`Error::Unsupported`] if the last [`evaluate`](Self::evaluate) was not on this band (or
     /// the band was rebuilt since, or the evaluation failed).
     pub fn forcing<'a>(&'a self, band: &'a Band<T>) -> Result<BendingForcing<'a, T>> {
-        if self.generation == 0 || band.generation() != self.generation {
-            return Err(Error::Unsupported {
-                component: "BendingStress",
-                detail: "not evaluated on this band (or the band was rebuilt since): call evaluate after \
-                         Band::rebuild"
-                    .into(),
-            });
-        }
+        band.check_generation("BendingStress", self.generation, "evaluated")?;
         Ok(BendingForcing { b: self, band })
     }
 }

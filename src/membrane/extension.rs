@@ -46,35 +46,21 @@
 //! from both sides) reaches 0.93 / 0.97 but makes capsules in shear worse, so the map keeps the
 //! trilinear read (docs/validation/surface_mobility.md).
 //!
-//! # The outer layers' `G_s`
+//! # The outer layers
 //!
-//! Sliding with the surface is not enough for the layers far from it: a layer at depth `s`
-//! has the area of the parallel surface, `(1 − s κ₁)(1 − s κ₂)` times the surface's, and
-//! where the shell's inner layers reach the medial axis of a thin part (the tips of a capsule
-//! in shear: their radius of curvature is 1.4 cells at `N` = 64, Ca = 0.2) they are crushed:
-//! `c2` falls to zero and below, and the transport of `G_s` there creates elastic energy
-//! without work until the steps collapse. [`SurfaceExtension::resample_strain`] therefore
-//! gives every band cell deeper than [`RESAMPLE_DEPTH`] cells the `G_s` of its closest surface
-//! point, interpolated from the layers within that depth, each turned into the cell's tangent
-//! plane: the whole shell then carries the surface's deformation, as it carries its velocity.
-//! An outer cell with no core layer around its closest point (a tail of the profile beyond a
-//! tip) is no sample of the membrane: it is re-set to `P`, as the paper re-sets the cells
-//! outside the band.
-//! `G_s` is a closest-point extension of its core layers (Ruuth & Merriman's closest point
-//! method); the core layers keep their transport, so that no interpolation is repeated on them
-//! step after step. The simulation applies it with `Traction::SharpResampled`. It is not
-//! energy-neutral: the outer layers' stress still acts through their own velocity gradient
-//! while their `G_s` is replaced, and on the squashed sphere of Sec. 3.2 (N = 64) the energy
-//! error is 3.3e-2 against 6.6e-3 without it (docs/validation/shear_capsule.md).
+//! Sliding with the surface is not enough for the layers far from it: where the shell's inner
+//! layers reach the medial axis of a thin part they are crushed. A map built
+//! [`with_outer_layers`](SurfaceExtension::with_outer_layers) also carries the
+//! [`OuterLayers`] of the shell: their `G_s` is the surface's, and their stress acts on the
+//! core (`Traction::SharpResampled`).
 //!
 //! Not in the paper: an immersed-boundary-like interpolation and spreading at the closest
 //! points, without markers (every shell cell is its own sample of the surface).
 
 use super::band::{Band, band_spacing};
-use crate::grid::ops::cell_vector;
-use crate::grid::{Field, GHOST, Grid, SymField, VectorField};
+use super::outer_layers::OuterLayers;
+use crate::grid::{Field, GHOST, Grid, VectorField};
 use crate::interface::geometry::psi_of;
-use crate::tensor::{Sym, Vec3, dot, project, projector, rotate, rotation_taking};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -82,24 +68,17 @@ use std::sync::Mutex;
 /// Faces per rayon task.
 const MIN_FACES_PER_TASK: usize = 256;
 
-/// The depth `|s| / h` (in cells, `h` the band's spacing) beyond which a band cell takes `G_s`
-/// from its closest surface point ([`SurfaceExtension::resample_strain`]). The trilinear
-/// stencil around a surface point reaches `√3/2` of a cell from it along the normal; 1.5
-/// cells keeps it within the core layers nearly everywhere, and the band reaches 2.65 cells
-/// (`ε` = 0.01, `β` = 1), so that one layer on each side is re-sampled.
-pub const RESAMPLE_DEPTH: f64 = 1.5;
-
 /// A point as a cell of the cell-centred lattice and its offset in it: `x = lower + (base + t +
 /// 1/2) h` per axis, `0 <= t < 1` (so that the stencils of all three components follow without
 /// a floor).
 #[derive(Debug, Clone, Copy)]
-struct Point<T> {
+pub(super) struct Point<T> {
     base: [isize; 3],
     t: [T; 3],
 }
 
 impl<T: Real> Point<T> {
-    fn new(grid: &Grid<T>, x: &[T; 3]) -> Option<Self> {
+    pub(super) fn new(grid: &Grid<T>, x: &[T; 3]) -> Option<Self> {
         let (h, lower) = (grid.h(), grid.lower());
         let mut p = Point { base: [0; 3], t: [T::zero(); 3] };
         for a in 0..3 {
@@ -138,8 +117,8 @@ pub struct SurfaceExtension<T> {
     images: Vec<(usize, usize)>,
     generation: u64,
     scratch: Mutex<Scratch<T>>,
-    /// The re-sampled `G_s` of the band's outer cells ([`SurfaceExtension::resample_strain`]).
-    resampled: Vec<Option<Sym<T>>>,
+    /// The shell's outer layers, where asked for.
+    layers: Option<OuterLayers<T>>,
 }
 
 impl<T> std::fmt::Debug for SurfaceExtension<T> {
@@ -177,8 +156,21 @@ impl<T: Real> SurfaceExtension<T> {
                 f: VectorField::zeros(grid),
                 values: Vec::new(),
             }),
-            resampled: Vec::new(),
+            layers: None,
         })
+    }
+
+    /// The same map, also carrying the shell's [`OuterLayers`], rebuilt with it.
+    pub fn with_outer_layers(mut self) -> Self {
+        // `beta` was checked by `new`.
+        self.layers = OuterLayers::new(&self.grid, self.beta).ok();
+        self
+    }
+
+    /// The shell's outer layers, if the map carries them
+    /// ([`with_outer_layers`](Self::with_outer_layers)).
+    pub fn outer_layers(&self) -> Option<&OuterLayers<T>> {
+        self.layers.as_ref()
     }
 
     /// Rebuilds the map on the faces of `band.halo(2)` (every face the in-plane force and the
@@ -235,6 +227,9 @@ impl<T: Real> SurfaceExtension<T> {
         self.images.clear();
         for (&m, ijk) in cells.iter().zip(coords) {
             push_images(grid, ijk.map(|x| x as isize), m, &mut self.images);
+        }
+        if let Some(layers) = self.layers.as_mut() {
+            layers.rebuild(band, phi, normal)?;
         }
         self.generation = band.generation();
         Ok(())
@@ -334,69 +329,6 @@ impl<T: Real> SurfaceExtension<T> {
         Ok(())
     }
 
-    /// Gives every band cell deeper than [`RESAMPLE_DEPTH`] cells the `G_s` of its closest
-    /// surface point `x_Γ = x − s n` (see the [module docs](self)): the trilinear interpolation
-    /// at `x_Γ` of the band cells within that depth, each value turned into the cell's tangent
-    /// plane by the least rotation taking its normal to the cell's (cells whose normal is more
-    /// than 60° off are left out, and the weights renormalised), projected on that plane. A
-    /// cell whose stencil holds no core cell (a tail of the profile beyond a tip, not a sample
-    /// of the membrane) is re-set to `P`, as the cells outside the band are. The core cells
-    /// are not touched.
-    ///
-    /// Inputs as [`rebuild`](Self::rebuild)'s (the band, `phi` and the unit normals into the
-    /// capsule) and `gs` on the band; only band cells are read.
-    ///
-    /// # Errors
-    /// [`Error::InvalidParameter`] naming `grid` for a band or field of another grid.
-    pub fn resample_strain(
-        &mut self,
-        band: &Band<T>,
-        phi: &Field<T>,
-        normal: &[Field<T>; 3],
-        gs: &mut SymField<T>,
-    ) -> Result<()> {
-        let grid = &self.grid;
-        band.matches(grid)?;
-        let len = grid.len();
-        if phi.data.len() != len
-            || normal.iter().any(|f| f.data.len() != len)
-            || gs.c.iter().any(|f| f.data.len() != len)
-        {
-            return Err(Error::invalid("grid", "a field of another grid", "a field of the band's grid"));
-        }
-        let scale = band_spacing(grid) / self.beta;
-        let depth = T::lit(RESAMPLE_DEPTH) * band_spacing(grid);
-        let gs_ro: &SymField<T> = gs;
-        self.resampled.resize(band.len(), None);
-        self.resampled
-            .par_iter_mut()
-            .zip(band.cells().par_iter().zip(band.coords(0).par_iter()))
-            .with_min_len(MIN_FACES_PER_TASK)
-            .for_each(|(out, (&idx, ijk))| {
-                let s = psi_of(phi.data[idx]) * scale;
-                let n = cell_vector(normal, idx);
-                // A NaN normal compares false: no normal, no closest point.
-                let has_normal = dot(&n, &n) > T::lit(0.5);
-                *out = if s.abs() <= depth || !has_normal {
-                    None
-                } else {
-                    let x = grid.cell_center(ijk[0] as isize, ijk[1] as isize, ijk[2] as isize);
-                    // No core layer at the closest point: not a sample of the membrane (a
-                    // tail of the profile beyond a tip), re-set to P as outside the band.
-                    Some(
-                        resampled_at(grid, band, phi, normal, gs_ro, x, s, n, scale, depth)
-                            .unwrap_or_else(|| projector(&n)),
-                    )
-                };
-            });
-        for (&idx, g) in band.cells().iter().zip(&self.resampled) {
-            if let Some(g) = g {
-                gs.set(idx, g);
-            }
-        }
-        Ok(())
-    }
-
     /// Runs `with(u_a, u_b)` on the membrane velocities `u_a = M a` and `u_b = M b` (e.g. the
     /// fluid velocities at two time levels, for the `G_s` transport), written on the faces of
     /// the map only.
@@ -412,47 +344,6 @@ impl<T: Real> SurfaceExtension<T> {
         self.extend_into(b, f, values);
         with(u, f)
     }
-}
-
-/// The `G_s` of band cell `idx` (at `x`, depth `s`, unit normal `n`) re-sampled at its
-/// closest surface point `x − s n`: the trilinear interpolation of the band's core cells
-/// (depth at most `depth`, normal within 60° of `n`), each value turned into the tangent plane
-/// of `n`, the weights renormalised, the result projected on that plane; `None` where no core
-/// cell carries weight.
-#[allow(clippy::too_many_arguments)]
-fn resampled_at<T: Real>(
-    grid: &Grid<T>,
-    band: &Band<T>,
-    phi: &Field<T>,
-    normal: &[Field<T>; 3],
-    gs: &SymField<T>,
-    x: [T; 3],
-    s: T,
-    n: Vec3<T>,
-    scale: T,
-    depth: T,
-) -> Option<Sym<T>> {
-    let xg: [T; 3] = std::array::from_fn(|d| x[d] - s * n[d]);
-    let stencil = trilinear(grid, None, &Point::new(grid, &xg)?)?;
-    let mut sum = [T::zero(); 6];
-    let mut weight = T::zero();
-    for (at, w) in stencil {
-        // Band cells only, read at their interior storage index (the stencil's periodic
-        // corners are wrapped already; a ghost across a wall is in no band).
-        let Some(j) = band.position(at).filter(|&q| q < band.len()).map(|q| band.cells()[q]) else {
-            continue;
-        };
-        if w == T::zero() || (psi_of(phi.data[j]) * scale).abs() > depth {
-            continue;
-        }
-        let Some(r) = rotation_taking(&cell_vector(normal, j), &n) else { continue };
-        let gj = rotate(&r, &gs.get(j));
-        weight += w;
-        for (a, b) in sum.iter_mut().zip(gj) {
-            *a += w * b;
-        }
-    }
-    (weight > T::lit(1e-3)).then(|| project(&projector(&n), &sum.map(|a| a / weight)))
 }
 
 /// `v_c(x_Γ) − n_c n·(v(x_Γ) − v(x_f))` of one row (`v_c(x_f)` without a normal).
@@ -504,7 +395,7 @@ fn spread_row<T: Real>(grid: &Grid<T>, c: usize, r: &Row<T>, x: T, out: &mut Vec
 /// of cell-centred values (`None`) (periodic axes wrapped to the interior; `None` if a wall
 /// axis would leave the stored range).
 #[inline]
-fn trilinear<T: Real>(grid: &Grid<T>, d: Option<usize>, p: &Point<T>) -> Option<[(usize, T); 8]> {
+pub(super) fn trilinear<T: Real>(grid: &Grid<T>, d: Option<usize>, p: &Point<T>) -> Option<[(usize, T); 8]> {
     let (n, st) = (grid.n(), grid.strides());
     let half = T::lit(0.5);
     let g = GHOST as isize;
@@ -579,12 +470,12 @@ fn push_images<T: Real>(grid: &Grid<T>, ijk: [isize; 3], m: usize, images: &mut 
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     /// A sphere of radius 0.2 at the centre of a periodic unit box of `n^3` cells: the MTHINC
     /// profile `phi`, its inward normals, and the band of `delta = |grad phi|`.
-    fn sphere(n: usize) -> (Grid<f64>, Field<f64>, [Field<f64>; 3], Band<f64>) {
+    pub(in crate::membrane) fn sphere(n: usize) -> (Grid<f64>, Field<f64>, [Field<f64>; 3], Band<f64>) {
         let g = Grid::<f64>::periodic([n; 3], [0.0; 3], [1.0; 3]).unwrap();
         let h = 1.0 / n as f64;
         let dist =
@@ -617,71 +508,9 @@ mod tests {
     }
 
     /// A reproducible pseudo-random number in [-1, 1).
-    fn noise(k: usize) -> f64 {
+    pub(in crate::membrane) fn noise(k: usize) -> f64 {
         let x = (k as u64).wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
-
-    /// An isotropic stretch `a P(n)` on the core layers: every outer cell takes `a P` of its
-    /// own normal, whatever it held, and the core is not touched.
-    #[test]
-    fn outer_layers_take_the_strain_of_the_core() {
-        let (g, phi, normal, band) = sphere(32);
-        let mut m = SurfaceExtension::new(&g, 1.0).unwrap();
-        let h = 1.0 / 32.0;
-        let depth = |idx: usize| psi_of(phi.data[idx]).abs();
-        let a = 1.3;
-        let mut gs = SymField::zeros(&g);
-        for (k, &idx) in band.cells().iter().enumerate() {
-            let p = projector(&cell_vector(&normal, idx));
-            let value = if depth(idx) <= RESAMPLE_DEPTH { p.map(|x| a * x) } else { p.map(|x| x + noise(k)) };
-            gs.set(idx, &value);
-        }
-        let before = gs.clone();
-        m.resample_strain(&band, &phi, &normal, &mut gs).unwrap();
-        let (mut outer, mut worst) = ([0usize; 2], 0.0f64);
-        for &idx in band.cells() {
-            if depth(idx) <= RESAMPLE_DEPTH {
-                assert_eq!(gs.get(idx), before.get(idx));
-                continue;
-            }
-            outer[usize::from(phi.data[idx] > 0.5)] += 1;
-            let expected = projector(&cell_vector(&normal, idx)).map(|x| a * x);
-            let err = gs.get(idx).iter().zip(&expected).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
-            worst = worst.max(err);
-        }
-        assert!(outer[0] > 500 && outer[1] > 200, "outer cells outside / inside: {outer:?}");
-        assert!(worst < 1e-12, "largest deviation {worst} (h = {h})");
-    }
-
-    /// Outer cells whose closest point has no core layer around it are re-set to `P`.
-    #[test]
-    fn outer_layers_without_a_core_are_reset() {
-        let (g, mut phi, normal, band) = sphere(32);
-        let mut m = SurfaceExtension::new(&g, 1.0).unwrap();
-        let outer: Vec<usize> =
-            band.cells().iter().copied().filter(|&i| psi_of(phi.data[i]).abs() > RESAMPLE_DEPTH).collect();
-        // No core: every band cell reads as deep inside.
-        for &idx in band.cells() {
-            if psi_of(phi.data[idx]).abs() <= RESAMPLE_DEPTH {
-                phi.data[idx] = 0.9999;
-            }
-        }
-        phi.fill_ghosts(&g);
-        let mut gs = SymField::zeros(&g);
-        for &idx in band.cells() {
-            gs.set(idx, &[2.0, 0.1, 0.2, 3.0, 0.3, 4.0]);
-        }
-        m.resample_strain(&band, &phi, &normal, &mut gs).unwrap();
-        for &idx in band.cells() {
-            let expected = if psi_of(phi.data[idx]).abs() > RESAMPLE_DEPTH {
-                projector(&cell_vector(&normal, idx))
-            } else {
-                [2.0, 0.1, 0.2, 3.0, 0.3, 4.0]
-            };
-            assert_eq!(gs.get(idx), expected);
-        }
-        assert!(outer.len() > 500);
     }
 
     #[test]

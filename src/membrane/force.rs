@@ -53,7 +53,8 @@
 
 use super::band::Band;
 use super::law::SurfaceLaw;
-use super::stress::{Jacobian, h_tensor, stress_and_jacobian};
+use super::outer_layers::OuterLayers;
+use super::stress::{Jacobian, h_tensor, jacobian_apply, stress_and_jacobian, stretching};
 use crate::error::positive;
 use crate::fluid::{Forcing, ImplicitTerm};
 use crate::grid::ops::{cell_vector, grad_v_at_cell};
@@ -277,15 +278,7 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
     }
 
     fn check_band(&self, band: &Band<T>) -> Result<()> {
-        if self.generation == 0 || band.generation() != self.generation {
-            return Err(Error::Unsupported {
-                component: "InPlaneElasticity",
-                detail: "not evaluated on this band (or the band was rebuilt since): call evaluate after \
-                         Band::rebuild"
-                    .into(),
-            });
-        }
-        Ok(())
+        band.check_generation("InPlaneElasticity", self.generation, "evaluated")
     }
 
     /// The explicit in-plane force `∇·(δ (τⁿ + (Δt/4) H(vⁿ, G_sⁿ, Jⁿ)))` of (2.35), as a
@@ -296,7 +289,7 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
     /// failed).
     pub fn forcing<'a>(&'a self, band: &'a Band<T>) -> Result<InPlaneForcing<'a, T, L>> {
         self.check_band(band)?;
-        Ok(InPlaneForcing { e: self, band, quasi_implicit: true })
+        Ok(InPlaneForcing { e: self, band, layers: None, quasi_implicit: true })
     }
 
     /// The fully explicit in-plane force `∇·(δ τⁿ)`, without the linearised `H` terms of
@@ -307,7 +300,7 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
     /// As [`forcing`](Self::forcing).
     pub fn explicit_forcing<'a>(&'a self, band: &'a Band<T>) -> Result<InPlaneForcing<'a, T, L>> {
         self.check_band(band)?;
-        Ok(InPlaneForcing { e: self, band, quasi_implicit: false })
+        Ok(InPlaneForcing { e: self, band, layers: None, quasi_implicit: false })
     }
 
     /// The implicit term `−(Δt/4) ∇·(δ H(v*, G_sⁿ, Jⁿ))` of the predictor (2.35), as an
@@ -317,14 +310,16 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
     /// As [`forcing`](Self::forcing).
     pub fn implicit<'a>(&'a self, band: &'a Band<T>) -> Result<InPlaneImplicit<'a, T, L>> {
         self.check_band(band)?;
-        Ok(InPlaneImplicit { e: self, band })
+        Ok(InPlaneImplicit { e: self, band, layers: None })
     }
 
-    /// `S = δ (a τ + b H(w))` per band cell into the scratch, then the face forces of `halo(1)`
-    /// added to `out`.
+    /// `S = δ (a τ + b H(w))` per band cell into the scratch (with `layers`: the outer cells'
+    /// rates of `G_s` gathered from the core and their `S` scattered onto it), then the face
+    /// forces of `halo(1)` added to `out`.
     fn add_force(
         &self,
         band: &Band<T>,
+        layers: Option<&OuterLayers<T>>,
         w: &VectorField<T>,
         a: T,
         b: T,
@@ -337,18 +332,32 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
         let Scratch { s, f } = &mut *guard;
         s.resize(band.len(), [T::zero(); 6]);
         let with_h = b != T::zero();
-        s.par_iter_mut()
-            .zip(self.state.par_iter())
-            .zip(band.cells().par_iter())
-            .with_min_len(MIN_CELLS_PER_TASK)
-            .for_each(|((so, cs), &idx)| {
+        let cells = (self.state.par_iter().zip(band.cells().par_iter())).with_min_len(MIN_CELLS_PER_TASK);
+        match layers {
+            None => s.par_iter_mut().zip(cells).for_each(|(so, (cs, &idx))| {
                 let h = if with_h {
                     h_tensor(&grad_v_at_cell(grid, w, idx), &cs.g, &cs.jac)
                 } else {
                     [T::zero(); 6]
                 };
                 *so = std::array::from_fn(|k| cs.delta * (a * cs.tau[k] + b * h[k]));
-            });
+            }),
+            Some(layers) => {
+                if with_h {
+                    s.par_iter_mut().zip(cells).for_each(|(so, (cs, &idx))| {
+                        *so = stretching(&grad_v_at_cell(grid, w, idx), &cs.g);
+                    });
+                    layers.gather(s);
+                }
+                s.par_iter_mut().zip(self.state.par_iter()).with_min_len(MIN_CELLS_PER_TASK).for_each(
+                    |(so, cs)| {
+                        let h = if with_h { jacobian_apply(&cs.jac, so) } else { [T::zero(); 6] };
+                        *so = std::array::from_fn(|k| cs.delta * (a * cs.tau[k] + b * h[k]));
+                    },
+                );
+                layers.scatter(s);
+            }
+        }
         let st = grid.strides();
         let hh = grid.h();
         let ih = [T::one() / hh[0], T::one() / hh[1], T::one() / hh[2]];
@@ -372,7 +381,22 @@ impl<T: Real, L: SurfaceLaw<T>> InPlaneElasticity<T, L> {
 pub struct InPlaneForcing<'a, T: Real, L: SurfaceLaw<T>> {
     e: &'a InPlaneElasticity<T, L>,
     band: &'a Band<T>,
+    layers: Option<&'a OuterLayers<T>>,
     quasi_implicit: bool,
+}
+
+impl<'a, T: Real, L: SurfaceLaw<T>> InPlaneForcing<'a, T, L> {
+    /// The same force on a shell whose outer layers take `G_s` from the core
+    /// ([`OuterLayers`]): their stress acts on the core cells (the transpose of the
+    /// re-sampling), and their rate of `G_s` in `H` is the core's.
+    ///
+    /// # Errors
+    /// [`Error::Unsupported`] unless `layers` were built on the force's band.
+    pub fn with_outer_layers(mut self, layers: &'a OuterLayers<T>) -> Result<Self> {
+        layers.check_band(self.band)?;
+        self.layers = Some(layers);
+        Ok(self)
+    }
 }
 
 impl<T: Real, L: SurfaceLaw<T>> Forcing<T> for InPlaneForcing<'_, T, L> {
@@ -386,7 +410,7 @@ impl<T: Real, L: SurfaceLaw<T>> Forcing<T> for InPlaneForcing<'_, T, L> {
     /// [`Error::InvalidParameter`] naming `velocity` or `force` for a field of another grid.
     fn add(&self, _grid: &Grid<T>, _time: T, v: &VectorField<T>, out: &mut VectorField<T>) -> Result<()> {
         let q = if self.quasi_implicit { T::lit(0.25) * self.e.dt } else { T::zero() };
-        self.e.add_force(self.band, v, T::one(), q, out)
+        self.e.add_force(self.band, self.layers, v, T::one(), q, out)
     }
 }
 
@@ -395,6 +419,21 @@ impl<T: Real, L: SurfaceLaw<T>> Forcing<T> for InPlaneForcing<'_, T, L> {
 pub struct InPlaneImplicit<'a, T: Real, L: SurfaceLaw<T>> {
     e: &'a InPlaneElasticity<T, L>,
     band: &'a Band<T>,
+    layers: Option<&'a OuterLayers<T>>,
+}
+
+impl<'a, T: Real, L: SurfaceLaw<T>> InPlaneImplicit<'a, T, L> {
+    /// The same term on a shell whose outer layers take `G_s` from the core, as
+    /// [`InPlaneForcing::with_outer_layers`]: the operator becomes `D_hᵀ Aᵀ K A D_h`.
+    /// [`apply_at`](ImplicitTerm::apply_at) (for SOR) still reads the cells' own rates.
+    ///
+    /// # Errors
+    /// [`Error::Unsupported`] unless `layers` were built on the term's band.
+    pub fn with_outer_layers(mut self, layers: &'a OuterLayers<T>) -> Result<Self> {
+        layers.check_band(self.band)?;
+        self.layers = Some(layers);
+        Ok(self)
+    }
 }
 
 impl<T: Real, L: SurfaceLaw<T>> ImplicitTerm<T> for InPlaneImplicit<'_, T, L> {
@@ -404,7 +443,7 @@ impl<T: Real, L: SurfaceLaw<T>> ImplicitTerm<T> for InPlaneImplicit<'_, T, L> {
     /// [`Error::InvalidParameter`] naming `velocity` or `force` for a field of another grid.
     fn add_apply(&self, _grid: &Grid<T>, x: &VectorField<T>, y: &mut VectorField<T>) -> Result<()> {
         let q = -T::lit(0.25) * self.e.dt;
-        self.e.add_force(self.band, x, T::zero(), q, y)
+        self.e.add_force(self.band, self.layers, x, T::zero(), q, y)
     }
 
     /// The same at one face, recomputing `δ H` at the ten cells of the stencil (for SOR).

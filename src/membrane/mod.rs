@@ -44,6 +44,7 @@ pub mod extension;
 pub mod force;
 pub mod law;
 pub mod loading;
+pub mod outer_layers;
 pub mod strain;
 pub mod stress;
 pub mod wrinkling;
@@ -55,6 +56,7 @@ pub use extension::SurfaceExtension;
 pub use force::{InPlaneElasticity, InPlaneForcing, InPlaneImplicit};
 pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
 pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};
+pub use outer_layers::OuterLayers;
 pub use strain::{
     StrainAdvection, StrainTransport, advective_tendency, advective_tendency_in_frame, fill_projector,
     reset_outside_band,

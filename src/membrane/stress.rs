@@ -219,7 +219,12 @@ pub fn stretching<T: Real>(grad_v: &Mat3<T>, g: &Sym<T>) -> Sym<T> {
 /// [`stress_and_jacobian`]. `H` is the derivative of `τ` along `G_s(ε) = G_s + ε R`.
 #[inline]
 pub fn h_tensor<T: Real>(grad_v: &Mat3<T>, g: &Sym<T>, jac: &Jacobian<T>) -> Sym<T> {
-    let r = stretching(grad_v, g);
+    jacobian_apply(jac, &stretching(grad_v, g))
+}
+
+/// `J : R`, the rate of `τ` along a rate `R` of `G_s` (tensor components).
+#[inline]
+pub(crate) fn jacobian_apply<T: Real>(jac: &Jacobian<T>, r: &Sym<T>) -> Sym<T> {
     let mut h = [T::zero(); 6];
     for (ha, row) in h.iter_mut().zip(jac.iter()) {
         *ha = row.iter().zip(r.iter()).fold(T::zero(), |s, (&jab, &rb)| s + jab * rb);

@@ -202,6 +202,9 @@ impl<T: Real> Capsule<T> {
         let extension = match traction {
             Traction::Sharp | Traction::SharpResampled => {
                 let mut e = SurfaceExtension::new(grid, settings.advection.beta)?;
+                if traction == Traction::SharpResampled {
+                    e = e.with_outer_layers();
+                }
                 e.rebuild(&cur.band, &cur.phi, &cur.normal)?;
                 Some(e)
             }

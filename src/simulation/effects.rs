@@ -284,6 +284,10 @@ impl<T: Real> Effect<T> for Elasticity<T> {
                 MembraneCoupling::Explicit => e.explicit_forcing(m.band)?,
                 MembraneCoupling::QuasiImplicit => e.forcing(m.band)?,
             };
+            let f = match m.extension.and_then(SurfaceExtension::outer_layers) {
+                Some(layers) => f.with_outer_layers(layers)?,
+                None => f,
+            };
             if f.is_active() {
                 m.on_box(state.grid, v, out, |g, v, out| {
                     through(m.extension, v, out, |u, o| f.add(g, state.time, u, o))
@@ -306,7 +310,10 @@ impl<T: Real> Effect<T> for Elasticity<T> {
         }
         for (c, e) in self.at.iter() {
             let m = state.membrane(c)?;
-            let term = e.implicit(m.band)?;
+            let term = match m.extension.and_then(SurfaceExtension::outer_layers) {
+                Some(layers) => e.implicit(m.band)?.with_outer_layers(layers)?,
+                None => e.implicit(m.band)?,
+            };
             m.on_box(state.grid, x, y, |g, x, y| through(m.extension, x, y, |u, o| term.add_apply(g, u, o)))?;
         }
         Ok(())

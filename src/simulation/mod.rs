@@ -91,7 +91,7 @@ use crate::fluid::{Coefficient, Materials};
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::interface::NormalEstimator;
-use crate::membrane::Band;
+use crate::membrane::{Band, SurfaceExtension};
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
 use capsule::Capsule;
@@ -454,7 +454,6 @@ impl<T: Real> Simulation<T> {
         }
         self.flow.commit()?;
         for cap in &mut self.capsules {
-            let resampled = cap.traction() == Traction::SharpResampled;
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
                 strain.commit(&cap.next.band, &cap.next.normal, gs)?;
                 // The sharp membrane is one surface: G_s has no normal part (2.18).
@@ -467,8 +466,8 @@ impl<T: Real> Simulation<T> {
                 }
                 // The re-sampled sharp shell carries the surface's deformation in its outer
                 // layers too.
-                if resampled && let Some(x) = cap.extension.as_mut() {
-                    x.resample_strain(&cap.next.band, &cap.next.phi, &cap.next.normal, gs)?;
+                if let Some(layers) = cap.extension.as_ref().and_then(SurfaceExtension::outer_layers) {
+                    layers.resample(&cap.next.band, gs)?;
                 }
             }
             cap.commit();
@@ -628,7 +627,7 @@ impl<T: Real> Simulation<T> {
     }
     /// The velocity the membrane of capsule `c` moves and strains with, into `out` on the
     /// capsule's [`capsule_grid`](Self::capsule_grid): the fluid velocity with the smoothed
-    /// traction, the map [`SurfaceExtension`](crate::membrane::SurfaceExtension) of it with
+    /// traction, the map [`SurfaceExtension`] of it with
     /// [`Traction::Sharp`] (the tangential velocity of the closest surface point on the faces
     /// around the band).
     ///

@@ -188,14 +188,13 @@ pub enum Traction {
     /// the Krylov predictor.
     Sharp,
     /// [`Sharp`](Self::Sharp), and the layers deeper than
-    /// [`RESAMPLE_DEPTH`](crate::membrane::extension::RESAMPLE_DEPTH) cells take the `G_s` of
-    /// their closest surface point after each step
-    /// ([`SurfaceExtension::resample_strain`](crate::membrane::SurfaceExtension::resample_strain)):
-    /// the whole shell carries the surface's deformation as it carries its velocity. In shear
-    /// it removes the energy that the crushed inner layers at the tips create (no growth to
-    /// `t` = 12 at Ca = 0.05, 8 cells per radius) and halves the excess `D` at Ca = 0.1 and 0.2;
-    /// the re-sampling is not energy-neutral (the squashed sphere's energy error at N = 64 is
-    /// 3.3e-2 against 6.6e-3 with `Sharp`). Not in the paper; docs/validation/shear_capsule.md.
+    /// [`RESAMPLE_DEPTH`](crate::membrane::outer_layers::RESAMPLE_DEPTH) cells take the `G_s` of
+    /// their closest surface point after each step, and move their stress onto the layers
+    /// they take it from ([`OuterLayers`](crate::membrane::OuterLayers)): the whole shell
+    /// carries the surface's deformation as it carries its velocity, and the force is the
+    /// work-conjugate of the whole shell's energy. In shear it removes the energy that the
+    /// crushed inner layers at the tips create; the squashed sphere's energy error at N = 64
+    /// is 4.7e-3 (6.6e-3 with `Sharp`). Not in the paper; docs/validation/shear_capsule.md.
     SharpResampled,
 }
 

@@ -1,0 +1,384 @@
+//! The sharp shell's outer layers as a closest-point extension of its core layers, for `G_s`
+//! and, by the transpose, for the stress.
+//!
+//! # Why
+//!
+//! With the sharp membrane velocity ([`super::extension`]) every layer of the smoothed shell
+//! slides with the surface, but a layer at depth `s` has the area of the parallel surface,
+//! `(1 − s κ₁)(1 − s κ₂)` times the surface's. Where the shell's inner layers reach the medial
+//! axis of a thin part (the tips of a capsule in shear: their radius of curvature is 1.4 cells
+//! at `N` = 64, Ca = 0.2) they are crushed: `c2` falls to zero and below, and the transport of
+//! `G_s` there creates elastic energy without work until the steps collapse.
+//!
+//! # The map
+//!
+//! A band cell deeper than [`RESAMPLE_DEPTH`] cells (`|s| = |ψ| h / β`) is an *outer* cell. Its
+//! closest surface point `x_Γ = x − s n` has a trilinear stencil of eight cell centres; those
+//! that are *core* band cells (depth at most [`RESAMPLE_DEPTH`], normal within 60° of the
+//! outer cell's) carry the weights `w_k` (renormalised to sum to one). The linear map `A` from
+//! the core cells' symmetric tensors to the outer cells' is
+//!
+//! ```text
+//! (A X)_o = P_o ( Σ_k w_k R_k X_k R_kᵀ ) P_o,
+//! ```
+//!
+//! `R_k` the least rotation taking the core cell's normal to the outer cell's, `P_o = I − n nᵀ`.
+//! An outer cell without such a core cell (a tail of the profile beyond a tip) is an *orphan*:
+//! no sample of the membrane.
+//!
+//! - [`OuterLayers::resample`] sets `G_s` of the outer cells to `A G_s` (orphans to `P`, as the
+//!   paper re-sets the cells outside the band) after every step: the whole shell carries the
+//!   surface's deformation, as it carries its velocity (Ruuth & Merriman's closest point
+//!   method; the core layers keep their transport, so that no interpolation is repeated on them
+//!   step after step).
+//! - The outer cells' `G_s` is then a function of the core's, so the elastic energy is
+//!   `E = Σ_core e(G_k) + Σ_outer e((A G)_o)` and its rate is the stress power on the core
+//!   cells' stretching alone. [`OuterLayers::gather`] gives the outer cells the rates `A Ġ` of
+//!   the core (for the quasi-implicit term `H = J : Ġ` of (2.35)), and [`OuterLayers::scatter`]
+//!   moves the outer cells' stress `S_o = δ_o τ_o` onto the core with the transpose,
+//!   `S_k += Σ_o w_k R_kᵀ P_o S_o P_o R_k` (the Frobenius adjoint of `A`), leaving the outer
+//!   cells without stress of their own. The force `∇·S` then does the work the energy of the
+//!   whole shell takes, and the quasi-implicit operator keeps the structure `D_hᵀ Aᵀ K A D_h`.
+//!   (The transfer of `τ_o` rather than of `2 G_k ∂e/∂G_o` is exact where the core cells of a
+//!   stencil agree, `G_k = R_kᵀ (A G)_o R_k`, and first-order in their difference otherwise.)
+//!
+//! Not in the paper: the paper's shell has no sharp velocity and no crushed layers.
+
+use super::band::{Band, band_spacing};
+use super::extension::{Point, trilinear};
+use crate::grid::ops::cell_vector;
+use crate::grid::{Field, Grid, SymField};
+use crate::interface::geometry::psi_of;
+use crate::tensor::{Mat3, Sym, dot, mat_to_sym, matmul, projector, rotation_taking, sym_to_mat, transpose};
+use crate::{Error, Real, Result};
+use rayon::prelude::*;
+
+/// The depth `|s| / h` (in cells, `h` the band's spacing) beyond which a band cell is an
+/// outer cell. The trilinear stencil around a surface point reaches `√3/2` of a cell from it
+/// along the normal; 1.5 cells keeps it within the core layers nearly everywhere, and the band
+/// reaches 2.65 cells (`ε` = 0.01, `β` = 1), so that one layer on each side is outer.
+pub const RESAMPLE_DEPTH: f64 = 1.5;
+
+/// Outer cells per rayon task.
+const MIN_CELLS_PER_TASK: usize = 128;
+
+/// One core cell of an outer cell's stencil.
+#[derive(Debug, Clone, Copy)]
+struct Entry<T> {
+    /// Its position in the band.
+    core: u32,
+    /// Its (renormalised) weight.
+    w: T,
+    /// The least rotation taking its normal to the outer cell's.
+    r: Mat3<T>,
+}
+
+/// An outer cell and the core cells of its closest point's stencil (none for an orphan).
+#[derive(Debug, Clone, Copy)]
+struct Stencil<T> {
+    /// Its position in the band.
+    outer: u32,
+    /// Its projector `P_o`.
+    p: Sym<T>,
+    entries: [Entry<T>; 8],
+    len: u8,
+}
+
+impl<T: Real> Stencil<T> {
+    fn entries(&self) -> &[Entry<T>] {
+        &self.entries[..self.len as usize]
+    }
+
+    /// `(A X)_o` from the core values `x(k)` (`k` a band position); `None` for an orphan.
+    fn interpolate(&self, x: impl Fn(usize) -> Sym<T>) -> Option<Sym<T>> {
+        if self.len == 0 {
+            return None;
+        }
+        let mut sum = [[T::zero(); 3]; 3];
+        for e in self.entries() {
+            let rx = matmul(&matmul(&e.r, &sym_to_mat(&x(e.core as usize))), &transpose(&e.r));
+            for (s, r) in sum.iter_mut().flatten().zip(rx.iter().flatten()) {
+                *s += e.w * *r;
+            }
+        }
+        let p = sym_to_mat(&self.p);
+        Some(mat_to_sym(&matmul(&matmul(&p, &sum), &p)))
+    }
+}
+
+/// The outer layers of a sharp shell and the map `A` from its core (see the
+/// [module docs](self)), rebuilt from `phi` and the normals whenever the band is.
+#[derive(Debug, Clone)]
+pub struct OuterLayers<T> {
+    grid: Grid<T>,
+    beta: T,
+    stencils: Vec<Stencil<T>>,
+    generation: u64,
+}
+
+impl<T: Real> OuterLayers<T> {
+    /// No outer layers yet, for `grid` and the profile sharpness `beta` (`beta' = beta / h`,
+    /// (2.42)).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `beta` unless it is finite and `> 0`.
+    pub fn new(grid: &Grid<T>, beta: T) -> Result<Self> {
+        crate::error::positive("beta", beta)?;
+        Ok(OuterLayers { grid: grid.clone(), beta, stencils: Vec::new(), generation: 0 })
+    }
+
+    /// The band generation of the last [`rebuild`](Self::rebuild) (0 before the first).
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// The number of outer cells (orphans included).
+    pub fn len(&self) -> usize {
+        self.stencils.len()
+    }
+
+    /// Whether the band has no outer cell.
+    pub fn is_empty(&self) -> bool {
+        self.stencils.is_empty()
+    }
+
+    /// Finds the outer cells of `band` and their stencils from `phi` and the unit normals
+    /// `normal` (into the capsule; both at cell centres, ghosts filled).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `grid` for a band or field of another grid.
+    pub fn rebuild(&mut self, band: &Band<T>, phi: &Field<T>, normal: &[Field<T>; 3]) -> Result<()> {
+        let grid = &self.grid;
+        band.matches(grid)?;
+        let len = grid.len();
+        if phi.data.len() != len || normal.iter().any(|f| f.data.len() != len) {
+            return Err(Error::invalid("grid", "a field of another grid", "a field of the band's grid"));
+        }
+        let scale = band_spacing(grid) / self.beta;
+        let depth = T::lit(RESAMPLE_DEPTH) * band_spacing(grid);
+        let depth_of = |idx: usize| (psi_of(phi.data[idx]) * scale).abs();
+        let zero = Entry { core: 0, w: T::zero(), r: [[T::zero(); 3]; 3] };
+        self.stencils.clear();
+        for (q, &idx) in band.cells().iter().enumerate() {
+            let n = cell_vector(normal, idx);
+            // A NaN normal compares false: no normal, no closest point, no outer cell.
+            if depth_of(idx) > depth && dot(&n, &n) > T::lit(0.5) {
+                let outer = u32::try_from(q).map_err(|_| {
+                    Error::invalid(
+                        "grid",
+                        format!("a band of {} cells", band.len()),
+                        "at most 2^32 band cells",
+                    )
+                })?;
+                self.stencils.push(Stencil { outer, p: projector(&n), entries: [zero; 8], len: 0 });
+            }
+        }
+        let coords = band.coords(0);
+        self.stencils.par_iter_mut().with_min_len(MIN_CELLS_PER_TASK).for_each(|st| {
+            let q = st.outer as usize;
+            let idx = band.cells()[q];
+            let n = cell_vector(normal, idx);
+            let ijk = coords[q].map(|x| x as isize);
+            let x = grid.cell_center(ijk[0], ijk[1], ijk[2]);
+            let s = psi_of(phi.data[idx]) * scale;
+            let xg: [T; 3] = std::array::from_fn(|d| x[d] - s * n[d]);
+            let Some(corners) = Point::new(grid, &xg).and_then(|p| trilinear(grid, None, &p)) else {
+                return;
+            };
+            let mut weight = T::zero();
+            for (at, w) in corners {
+                // Band cells only (the stencil's periodic corners are wrapped already; a ghost
+                // across a wall is in no band).
+                let Some(k) = band.position(at).filter(|&k| k < band.len()) else { continue };
+                let j = band.cells()[k];
+                if w == T::zero() || depth_of(j) > depth {
+                    continue;
+                }
+                let Some(r) = rotation_taking(&cell_vector(normal, j), &n) else { continue };
+                st.entries[st.len as usize] = Entry { core: k as u32, w, r };
+                st.len += 1;
+                weight += w;
+            }
+            if weight > T::lit(1e-3) {
+                let len = st.len as usize;
+                for e in &mut st.entries[..len] {
+                    e.w /= weight;
+                }
+            } else {
+                st.len = 0;
+            }
+        });
+        self.generation = band.generation();
+        Ok(())
+    }
+
+    pub(crate) fn check_band(&self, band: &Band<T>) -> Result<()> {
+        band.check_generation("OuterLayers", self.generation, "built")
+    }
+
+    /// Sets `G_s` of every outer cell to `A G_s` (an orphan to `P`); the core cells are not
+    /// touched. `gs` is read on the band's core cells only.
+    ///
+    /// # Errors
+    /// [`Error::Unsupported`] unless the layers were built on `band`;
+    /// [`Error::InvalidParameter`] naming `gs` for a field of another grid.
+    pub fn resample(&self, band: &Band<T>, gs: &mut SymField<T>) -> Result<()> {
+        self.check_band(band)?;
+        if gs.c.iter().any(|f| f.data.len() != self.grid.len()) {
+            return Err(Error::invalid("gs", "a field of another grid", "a field of the band's grid"));
+        }
+        let cells = band.cells();
+        // An outer cell reads core cells only, which are never written.
+        for st in &self.stencils {
+            let g = st.interpolate(|k| gs.get(cells[k])).unwrap_or(st.p);
+            gs.set(cells[st.outer as usize], &g);
+        }
+        Ok(())
+    }
+
+    /// `x_o = (A x)_o` for every outer cell (zero for an orphan), `x` one value per band cell
+    /// (in the order of [`Band::cells`]); the core values are not touched.
+    pub fn gather(&self, x: &mut [Sym<T>]) {
+        for st in &self.stencils {
+            x[st.outer as usize] = st.interpolate(|k| x[k]).unwrap_or([T::zero(); 6]);
+        }
+    }
+
+    /// `x_k += (Aᵀ x)_k` on the core cells, then `x_o = 0` on the outer cells: the outer
+    /// cells' values moved onto the core with the transpose of [`gather`](Self::gather).
+    pub fn scatter(&self, x: &mut [Sym<T>]) {
+        for st in &self.stencils {
+            let o = st.outer as usize;
+            let p = sym_to_mat(&st.p);
+            let y = matmul(&matmul(&p, &sym_to_mat(&x[o])), &p);
+            x[o] = [T::zero(); 6];
+            for e in st.entries() {
+                let back = mat_to_sym(&matmul(&matmul(&transpose(&e.r), &y), &e.r));
+                let k = e.core as usize;
+                for (a, b) in x[k].iter_mut().zip(back) {
+                    *a += e.w * b;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::membrane::extension::tests::{noise, sphere};
+    use crate::tensor::ddot;
+
+    fn layers(
+        g: &Grid<f64>,
+        band: &Band<f64>,
+        phi: &Field<f64>,
+        normal: &[Field<f64>; 3],
+    ) -> OuterLayers<f64> {
+        let mut l = OuterLayers::new(g, 1.0).unwrap();
+        l.rebuild(band, phi, normal).unwrap();
+        assert_eq!(l.generation(), band.generation());
+        l
+    }
+
+    fn depth(phi: &Field<f64>, idx: usize) -> f64 {
+        psi_of(phi.data[idx]).abs()
+    }
+
+    /// An isotropic stretch `a P(n)` on the core layers: every outer cell takes `a P` of its
+    /// own normal, whatever it held, and the core is not touched.
+    #[test]
+    fn outer_layers_take_the_strain_of_the_core() {
+        let (g, phi, normal, band) = sphere(32);
+        let l = layers(&g, &band, &phi, &normal);
+        let a = 1.3;
+        let mut gs = SymField::zeros(&g);
+        for (k, &idx) in band.cells().iter().enumerate() {
+            let p = projector(&cell_vector(&normal, idx));
+            let value =
+                if depth(&phi, idx) <= RESAMPLE_DEPTH { p.map(|x| a * x) } else { p.map(|x| x + noise(k)) };
+            gs.set(idx, &value);
+        }
+        let before = gs.clone();
+        l.resample(&band, &mut gs).unwrap();
+        let (mut outer, mut worst) = ([0usize; 2], 0.0f64);
+        for &idx in band.cells() {
+            if depth(&phi, idx) <= RESAMPLE_DEPTH {
+                assert_eq!(gs.get(idx), before.get(idx));
+                continue;
+            }
+            outer[usize::from(phi.data[idx] > 0.5)] += 1;
+            let expected = projector(&cell_vector(&normal, idx)).map(|x| a * x);
+            let err = gs.get(idx).iter().zip(&expected).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+            worst = worst.max(err);
+        }
+        assert_eq!(outer[0] + outer[1], l.len());
+        assert!(outer[0] > 500 && outer[1] > 200, "outer cells outside / inside: {outer:?}");
+        assert!(worst < 1e-12, "largest deviation {worst}");
+    }
+
+    /// Outer cells whose closest point has no core layer around it are re-set to `P`.
+    #[test]
+    fn outer_layers_without_a_core_are_reset() {
+        let (g, mut phi, normal, band) = sphere(32);
+        // No core: every band cell reads as deep inside.
+        for &idx in band.cells() {
+            if depth(&phi, idx) <= RESAMPLE_DEPTH {
+                phi.data[idx] = 0.9999;
+            }
+        }
+        phi.fill_ghosts(&g);
+        let l = layers(&g, &band, &phi, &normal);
+        assert!(l.len() > 500);
+        let mut gs = SymField::zeros(&g);
+        let value = [2.0, 0.1, 0.2, 3.0, 0.3, 4.0];
+        for &idx in band.cells() {
+            gs.set(idx, &value);
+        }
+        l.resample(&band, &mut gs).unwrap();
+        for &idx in band.cells() {
+            let expected = match depth(&phi, idx) > RESAMPLE_DEPTH {
+                true => projector(&cell_vector(&normal, idx)),
+                false => value,
+            };
+            assert_eq!(gs.get(idx), expected);
+        }
+    }
+
+    /// `scatter` is the transpose of `gather` in the double contraction: `Σ_o (A x)_o : y_o =
+    /// Σ_k x_k : (Aᵀ y)_k` for any core values `x` and outer values `y`.
+    #[test]
+    fn scatter_is_the_transpose_of_gather() {
+        let (g, phi, normal, band) = sphere(32);
+        let l = layers(&g, &band, &phi, &normal);
+        let is_outer: Vec<bool> = band.cells().iter().map(|&i| depth(&phi, i) > RESAMPLE_DEPTH).collect();
+        let random = |salt: usize| -> Vec<Sym<f64>> {
+            (0..band.len()).map(|q| std::array::from_fn(|c| noise(6 * q + c + salt))).collect()
+        };
+        // x on the core only, y on the outer cells only.
+        let mut x = random(1);
+        let mut y = random(2);
+        for (q, &o) in is_outer.iter().enumerate() {
+            if o {
+                x[q] = [0.0; 6];
+            } else {
+                y[q] = [0.0; 6];
+            }
+        }
+        let mut ax = x.clone();
+        l.gather(&mut ax);
+        let mut aty = y.clone();
+        l.scatter(&mut aty);
+        let lhs: f64 = (0..band.len()).filter(|&q| is_outer[q]).map(|q| ddot(&ax[q], &y[q])).sum();
+        let rhs: f64 = (0..band.len()).filter(|&q| !is_outer[q]).map(|q| ddot(&x[q], &aty[q])).sum();
+        assert!(lhs.abs() > 1.0);
+        assert!((lhs - rhs).abs() <= 1e-10 * lhs.abs(), "{lhs} vs {rhs}");
+        // The core values are kept by gather, the outer ones emptied by scatter.
+        for (q, &o) in is_outer.iter().enumerate() {
+            match o {
+                true => assert_eq!(aty[q], [0.0; 6]),
+                false => assert_eq!(ax[q], x[q]),
+            }
+        }
+    }
+}
