@@ -148,8 +148,8 @@ impl<W> PerCapsule<W> {
 /// // A stiff capsule 0 and a soft capsule 1 in one scene.
 /// let stiff = Elasticity::<f64>::new(NeoHookean::new(10.0)?).only([0]);
 /// let soft = Elasticity::<f64>::new(Skalak::new(1.0, 2.0)?).only([1]);
-/// // The validated shear runs' elasticity: the sharp traction, the default coupling.
-/// let sharp = Elasticity::<f64>::new(NeoHookean::new(1.0)?).traction(Traction::Sharp);
+/// // The validated shear runs' elasticity: the re-sampled sharp traction, the default coupling.
+/// let sharp = Elasticity::<f64>::new(NeoHookean::new(1.0)?).traction(Traction::SharpResampled);
 /// // The explicit stress of the stability studies.
 /// let explicit = Elasticity::<f64>::new(NeoHookean::new(1.0)?).coupling(MembraneCoupling::Explicit);
 /// # let _ = (stiff, soft, sharp, explicit);

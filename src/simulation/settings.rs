@@ -38,9 +38,9 @@ impl<T: Real> Phase<T> {
 /// # Choosing
 /// Start from `Settings::default()` and change only what the case needs. The validated capsule
 /// runs (`examples/capsule_in_shear.rs`, `cases/examples/shear_capsule.rs`) keep every setting
-/// and change one option of the elasticity: [`Traction::Sharp`], which at 6–8 cells per radius
-/// holds the membrane's reference area and cuts the overshoot of the deformation to a third
-/// (the default [`Traction::Smoothed`] is the paper's). Everything else stays: the damped
+/// and change one option of the elasticity: [`Traction::SharpResampled`], which at 6–8 cells
+/// per radius cuts the overshoot of the deformation to a third and runs to `t` = 12 (the
+/// default [`Traction::Smoothed`] is the paper's). Everything else stays: the damped
 /// viscous scheme `Theta(0.6)`, the band `epsilon = 0.01`, the quasi-implicit membrane
 /// coupling, the semi-implicit bending. For many capsules in a large box,
 /// [`storage`](Self::storage) `= CapsuleStorage::Boxed { room: 1.2 }` saves memory. The step
