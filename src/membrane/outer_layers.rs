@@ -52,6 +52,7 @@ use crate::interface::geometry::psi_of;
 use crate::tensor::{Mat3, Sym, dot, mat_to_sym, matmul, projector, rotation_taking, sym_to_mat, transpose};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
+use std::sync::{Mutex, MutexGuard};
 
 /// The depth `|s| / h` (in cells, `h` the band's spacing) beyond which a band cell is an
 /// outer cell. The trilinear stencil around a surface point reaches `√3/2` of a cell from it
@@ -108,11 +109,18 @@ impl<T: Real> Stencil<T> {
 
 /// The outer layers of a sharp shell and the map `A` from its core (see the
 /// [module docs](self)), rebuilt from `phi` and the normals whenever the band is.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct OuterLayers<T> {
     grid: Grid<T>,
     beta: T,
     stencils: Vec<Stencil<T>>,
+    /// Per band position `k`, `users[starts[k]..starts[k + 1]]`: the `(stencil, entry)` pairs
+    /// that read core cell `k`, in the order of the stencils (so that the transpose sums in
+    /// a fixed order).
+    starts: Vec<u32>,
+    users: Vec<(u32, u8)>,
+    /// One value per stencil (scratch of the parallel passes).
+    values: Mutex<Vec<Sym<T>>>,
     generation: u64,
 }
 
@@ -124,7 +132,15 @@ impl<T: Real> OuterLayers<T> {
     /// [`Error::InvalidParameter`] naming `beta` unless it is finite and `> 0`.
     pub fn new(grid: &Grid<T>, beta: T) -> Result<Self> {
         crate::error::positive("beta", beta)?;
-        Ok(OuterLayers { grid: grid.clone(), beta, stencils: Vec::new(), generation: 0 })
+        Ok(OuterLayers {
+            grid: grid.clone(),
+            beta,
+            stencils: Vec::new(),
+            starts: Vec::new(),
+            users: Vec::new(),
+            values: Mutex::new(Vec::new()),
+            generation: 0,
+        })
     }
 
     /// The band generation of the last [`rebuild`](Self::rebuild) (0 before the first).
@@ -208,6 +224,27 @@ impl<T: Real> OuterLayers<T> {
                 st.len = 0;
             }
         });
+        // The reverse map, by counting.
+        self.starts.clear();
+        self.starts.resize(band.len() + 1, 0);
+        for st in &self.stencils {
+            for e in st.entries() {
+                self.starts[e.core as usize + 1] += 1;
+            }
+        }
+        for k in 0..band.len() {
+            self.starts[k + 1] += self.starts[k];
+        }
+        self.users.clear();
+        self.users.resize(self.starts[band.len()] as usize, (0, 0));
+        let mut fill = self.starts.clone();
+        for (i, st) in self.stencils.iter().enumerate() {
+            for (j, e) in st.entries().iter().enumerate() {
+                let at = &mut fill[e.core as usize];
+                self.users[*at as usize] = (i as u32, j as u8);
+                *at += 1;
+            }
+        }
         self.generation = band.generation();
         Ok(())
     }
@@ -228,10 +265,12 @@ impl<T: Real> OuterLayers<T> {
             return Err(Error::invalid("gs", "a field of another grid", "a field of the band's grid"));
         }
         let cells = band.cells();
-        // An outer cell reads core cells only, which are never written.
-        for st in &self.stencils {
-            let g = st.interpolate(|k| gs.get(cells[k])).unwrap_or(st.p);
-            gs.set(cells[st.outer as usize], &g);
+        let values = {
+            let read: &SymField<T> = gs;
+            self.values_of(|st| st.interpolate(|k| read.get(cells[k])).unwrap_or(st.p))
+        };
+        for (st, g) in self.stencils.iter().zip(values.iter()) {
+            gs.set(cells[st.outer as usize], g);
         }
         Ok(())
     }
@@ -239,27 +278,55 @@ impl<T: Real> OuterLayers<T> {
     /// `x_o = (A x)_o` for every outer cell (zero for an orphan), `x` one value per band cell
     /// (in the order of [`Band::cells`]); the core values are not touched.
     pub fn gather(&self, x: &mut [Sym<T>]) {
-        for st in &self.stencils {
-            x[st.outer as usize] = st.interpolate(|k| x[k]).unwrap_or([T::zero(); 6]);
+        let values = {
+            let read: &[Sym<T>] = x;
+            self.values_of(|st| st.interpolate(|k| read[k]).unwrap_or([T::zero(); 6]))
+        };
+        for (st, v) in self.stencils.iter().zip(values.iter()) {
+            x[st.outer as usize] = *v;
         }
     }
 
     /// `x_k += (Aᵀ x)_k` on the core cells, then `x_o = 0` on the outer cells: the outer
     /// cells' values moved onto the core with the transpose of [`gather`](Self::gather).
     pub fn scatter(&self, x: &mut [Sym<T>]) {
+        // `P_o x_o P_o` per outer cell, then emptied.
+        let values = {
+            let read: &[Sym<T>] = x;
+            self.values_of(|st| {
+                let p = sym_to_mat(&st.p);
+                mat_to_sym(&matmul(&matmul(&p, &sym_to_mat(&read[st.outer as usize])), &p))
+            })
+        };
         for st in &self.stencils {
-            let o = st.outer as usize;
-            let p = sym_to_mat(&st.p);
-            let y = matmul(&matmul(&p, &sym_to_mat(&x[o])), &p);
-            x[o] = [T::zero(); 6];
-            for e in st.entries() {
+            x[st.outer as usize] = [T::zero(); 6];
+        }
+        // Each core cell sums what its users send back, in the stencils' order.
+        let (starts, users, values) = (&self.starts, &self.users, &*values);
+        x.par_iter_mut().enumerate().with_min_len(MIN_CELLS_PER_TASK).for_each(|(k, xk)| {
+            let Some(range) = starts.get(k..k + 2) else { return };
+            for &(i, j) in &users[range[0] as usize..range[1] as usize] {
+                let e = &self.stencils[i as usize].entries[j as usize];
+                let y = sym_to_mat(&values[i as usize]);
                 let back = mat_to_sym(&matmul(&matmul(&transpose(&e.r), &y), &e.r));
-                let k = e.core as usize;
-                for (a, b) in x[k].iter_mut().zip(back) {
+                for (a, b) in xk.iter_mut().zip(back) {
                     *a += e.w * b;
                 }
             }
-        }
+        });
+    }
+
+    /// `value(stencil)` for every stencil, computed in parallel into the scratch (in the order
+    /// of the stencils).
+    fn values_of(&self, value: impl Fn(&Stencil<T>) -> Sym<T> + Sync) -> MutexGuard<'_, Vec<Sym<T>>> {
+        let mut values = self.values.lock().unwrap_or_else(|p| p.into_inner());
+        values.resize(self.stencils.len(), [T::zero(); 6]);
+        values
+            .par_iter_mut()
+            .zip(self.stencils.par_iter())
+            .with_min_len(MIN_CELLS_PER_TASK)
+            .for_each(|(v, st)| *v = value(st));
+        values
     }
 }
 
