@@ -49,7 +49,7 @@ use super::extension::{Point, trilinear};
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField};
 use crate::interface::geometry::psi_of;
-use crate::tensor::{Mat3, Sym, dot, mat_to_sym, matmul, projector, rotation_taking, sym_to_mat, transpose};
+use crate::tensor::{Mat3, Sym, dot, project, projector, rotate, rotation_taking, transpose};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
 use std::sync::{Mutex, MutexGuard};
@@ -95,15 +95,13 @@ impl<T: Real> Stencil<T> {
         if self.len == 0 {
             return None;
         }
-        let mut sum = [[T::zero(); 3]; 3];
+        let mut sum = [T::zero(); 6];
         for e in self.entries() {
-            let rx = matmul(&matmul(&e.r, &sym_to_mat(&x(e.core as usize))), &transpose(&e.r));
-            for (s, r) in sum.iter_mut().flatten().zip(rx.iter().flatten()) {
-                *s += e.w * *r;
+            for (s, r) in sum.iter_mut().zip(rotate(&e.r, &x(e.core as usize))) {
+                *s += e.w * r;
             }
         }
-        let p = sym_to_mat(&self.p);
-        Some(mat_to_sym(&matmul(&matmul(&p, &sum), &p)))
+        Some(project(&self.p, &sum))
     }
 }
 
@@ -237,14 +235,16 @@ impl<T: Real> OuterLayers<T> {
         }
         self.users.clear();
         self.users.resize(self.starts[band.len()] as usize, (0, 0));
-        let mut fill = self.starts.clone();
+        // `starts[k]` as the cursor of cell k (ending at `starts[k + 1]`), then shifted back.
         for (i, st) in self.stencils.iter().enumerate() {
             for (j, e) in st.entries().iter().enumerate() {
-                let at = &mut fill[e.core as usize];
+                let at = &mut self.starts[e.core as usize];
                 self.users[*at as usize] = (i as u32, j as u8);
                 *at += 1;
             }
         }
+        self.starts.copy_within(..band.len(), 1);
+        self.starts[0] = 0;
         self.generation = band.generation();
         Ok(())
     }
@@ -293,10 +293,7 @@ impl<T: Real> OuterLayers<T> {
         // `P_o x_o P_o` per outer cell, then emptied.
         let values = {
             let read: &[Sym<T>] = x;
-            self.values_of(|st| {
-                let p = sym_to_mat(&st.p);
-                mat_to_sym(&matmul(&matmul(&p, &sym_to_mat(&read[st.outer as usize])), &p))
-            })
+            self.values_of(|st| project(&st.p, &read[st.outer as usize]))
         };
         for st in &self.stencils {
             x[st.outer as usize] = [T::zero(); 6];
@@ -307,8 +304,7 @@ impl<T: Real> OuterLayers<T> {
             let Some(range) = starts.get(k..k + 2) else { return };
             for &(i, j) in &users[range[0] as usize..range[1] as usize] {
                 let e = &self.stencils[i as usize].entries[j as usize];
-                let y = sym_to_mat(&values[i as usize]);
-                let back = mat_to_sym(&matmul(&matmul(&transpose(&e.r), &y), &e.r));
+                let back = rotate(&transpose(&e.r), &values[i as usize]);
                 for (a, b) in xk.iter_mut().zip(back) {
                     *a += e.w * b;
                 }

@@ -113,8 +113,6 @@ pub(crate) struct Capsule<T: Real> {
     /// The membrane velocity map of [`Traction::Sharp`], built on the level of the step being
     /// computed (`None` with the smoothed traction).
     pub(crate) extension: Option<SurfaceExtension<T>>,
-    /// The traction the effects asked for.
-    traction: Traction,
 }
 
 /// `phi` range where the geometry (normals, `delta`) is evaluated: wide enough for the
@@ -211,17 +209,21 @@ impl<T: Real> Capsule<T> {
             Traction::Smoothed => None,
         };
         let transport = make(grid, if curvature { Carried::PhiAndCurvature } else { Carried::Phi })?;
-        let mut cap =
-            Capsule { boxed, cur, next, gs, transport, strain, reference_target: None, extension, traction };
+        let mut cap = Capsule { boxed, cur, next, gs, transport, strain, reference_target: None, extension };
         if settings.reference_area == ReferenceArea::Conserved {
             cap.reference_target = cap.reference_area();
         }
         Ok(cap)
     }
 
-    /// Its traction (it carries the membrane velocity map where sharp).
+    /// Its traction: sharp where it carries the membrane velocity map, re-sampled where the
+    /// map carries the outer layers.
     pub(crate) fn traction(&self) -> Traction {
-        self.traction
+        match &self.extension {
+            None => Traction::Smoothed,
+            Some(e) if e.outer_layers().is_some() => Traction::SharpResampled,
+            Some(_) => Traction::Sharp,
+        }
     }
 
     /// The membrane at the current level.
