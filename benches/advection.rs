@@ -10,7 +10,9 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use eulermembrane::grid::{Grid, VectorField};
 use eulermembrane::interface::geometry::Geometry;
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
-use eulermembrane::interface::{AdvectionParams, Advector, Carried, NormalScheme};
+use eulermembrane::interface::{
+    advect::AdvectionParams, advect::Advector, advect::Carried, geometry::NormalScheme,
+};
 use std::f64::consts::PI;
 
 fn setup() -> (Grid<f64>, VectorField<f64>) {

@@ -14,7 +14,7 @@ use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_grou
 use eulermembrane::Real;
 use eulermembrane::grid::Grid;
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::Skalak;
+use eulermembrane::membrane::law::Skalak;
 use eulermembrane::simulation::{Phase, Scene, Simulation};
 use std::time::Duration;
 

@@ -2,7 +2,9 @@
 //! solver and with the paper's SOR, at a moderate viscous number `mu dt / (rho h^2) = 0.8`
 //! (SOR at the paper's stiffness is compared in the `solver_compare` example).
 use criterion::{Criterion, criterion_group, criterion_main};
-use eulermembrane::fluid::{FlowConfig, FlowStepper, Materials, PredictorSolver, SorParams};
+use eulermembrane::fluid::{
+    momentum::Materials, sor::SorParams, stepper::FlowConfig, stepper::FlowStepper, stepper::PredictorSolver,
+};
 use eulermembrane::grid::{Boundary, Grid};
 
 fn stepper(n: usize, solver: PredictorSolver) -> (FlowStepper<f64>, f64) {

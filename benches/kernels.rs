@@ -35,14 +35,18 @@ use eulermembrane::fluid::momentum::Predictor;
 use eulermembrane::fluid::projection::Projection;
 use eulermembrane::fluid::spectral::{Location, SpectralSolver};
 use eulermembrane::fluid::{
-    Coefficient, Forcing, HelmholtzPrecond, KrylovParams, KrylovWorkspace, LinOp, Materials,
+    forcing::Forcing, krylov::KrylovParams, krylov::KrylovWorkspace, krylov::LinOp, momentum::Coefficient,
+    momentum::HelmholtzPrecond, momentum::Materials,
 };
 use eulermembrane::grid::{Boundary, Field, Grid, SymField, VectorField};
 use eulermembrane::interface::geometry::{PhiRange, delta_in_band};
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
-use eulermembrane::interface::{AdvectionParams, Advector, Carried, Geometry, NormalScheme};
+use eulermembrane::interface::{
+    advect::AdvectionParams, advect::Advector, advect::Carried, geometry::Geometry, geometry::NormalScheme,
+};
 use eulermembrane::membrane::{
-    Band, BendingStress, InPlaneElasticity, Skalak, StrainTransport, fill_projector,
+    band::Band, bending::BendingStress, force::InPlaneElasticity, law::Skalak, strain::StrainTransport,
+    strain::fill_projector,
 };
 use std::hint::black_box;
 use std::time::Duration;

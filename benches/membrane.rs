@@ -5,10 +5,11 @@
 //! `cargo bench --bench membrane` (needs `[[bench]] name = "membrane" harness = false`).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use eulermembrane::fluid::{Forcing, ImplicitTerm};
+use eulermembrane::fluid::{forcing::Forcing, momentum::ImplicitTerm};
 use eulermembrane::grid::{Field, Grid, SymField, VectorField};
 use eulermembrane::membrane::{
-    Band, BendingStress, InPlaneElasticity, Skalak, StrainTransport, fill_projector,
+    band::Band, bending::BendingStress, force::InPlaneElasticity, law::Skalak, strain::StrainTransport,
+    strain::fill_projector,
 };
 use std::hint::black_box;
 use std::time::Duration;

@@ -32,11 +32,11 @@
 //! fails (returns an error) if `|d / d_theory - 1|` exceeds 10 %. The grid is small, 6 cells
 //! per radius (finer grids: docs/validation/shear_capsule.md).
 
-use eulermembrane::diagnostics::taylor_deformation;
+use eulermembrane::diagnostics::taylor::taylor_deformation;
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::{AdaptiveDt, Elasticity, Phase, Scene, Traction};
+use eulermembrane::membrane::law::NeoHookean;
+use eulermembrane::simulation::{Elasticity, Phase, Scene, Traction, timestep::AdaptiveDt};
 use std::time::Instant;
 
 /// Capillary number `Ca = mu gamma a / E_s`: viscous stress over membrane stiffness.

@@ -40,10 +40,10 @@
 //! (`D` measured on this machine). The tolerance is zero: the example returns an error if
 //! any compared value differs in any bit, if `D` differs, or if the step count or time differ.
 
-use eulermembrane::diagnostics::{centroid, taylor_deformation};
+use eulermembrane::diagnostics::{taylor::taylor_deformation, volume::centroid};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::NeoHookean;
+use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{Phase, Scene, Simulation};
 use std::path::Path;
 

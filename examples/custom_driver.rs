@@ -42,11 +42,11 @@
 //! 6.5e-3), or if an accepted step of the driver broke its own criterion.
 
 use eulermembrane::Error;
-use eulermembrane::diagnostics::{centroid, taylor_deformation, volume};
+use eulermembrane::diagnostics::{taylor::taylor_deformation, volume::centroid, volume::volume};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::{AdaptiveDt, Phase, Scene, Simulation};
+use eulermembrane::membrane::law::NeoHookean;
+use eulermembrane::simulation::{Phase, Scene, Simulation, timestep::AdaptiveDt};
 use std::time::Instant;
 
 /// The run's end time.

@@ -53,8 +53,8 @@
 use eulermembrane::Error;
 use eulermembrane::grid::{Grid, VectorField};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::{Effect, Phase, Scene, StepState};
+use eulermembrane::membrane::law::NeoHookean;
+use eulermembrane::simulation::{Phase, Scene, effect::Effect, effect::StepState};
 use std::f64::consts::PI;
 use std::time::Instant;
 

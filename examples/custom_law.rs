@@ -51,7 +51,7 @@
 use eulermembrane::Real;
 use eulermembrane::grid::Grid;
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::{SurfaceLaw, equibiaxial_tension};
+use eulermembrane::membrane::{law::SurfaceLaw, loading::equibiaxial_tension};
 use eulermembrane::simulation::{Phase, Scene};
 use eulermembrane::testing::{LawCheckError, Property, check_law};
 use std::time::Instant;

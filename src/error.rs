@@ -146,12 +146,12 @@ pub type Result<T> = std::result::Result<T, Error>;
 /// Validates a parameter that must be finite and strictly positive: `Ok(x)`, or an
 /// [`Error::InvalidParameter`] naming `name`, the value and `"a finite number > 0"`.
 ///
-/// For the constructors of users' own types (e.g. a [`SurfaceLaw`](crate::membrane::SurfaceLaw)),
+/// For the constructors of users' own types (e.g. a [`SurfaceLaw`](crate::membrane::law::SurfaceLaw)),
 /// so that their errors read like the crate's.
 ///
 /// # Example
 /// ```
-/// use eulermembrane::error::{Error, positive};
+/// use eulermembrane::{Error, positive};
 ///
 /// assert_eq!(positive("gs", 2.0), Ok(2.0));
 /// match positive("gs", -1.0) {
@@ -171,7 +171,7 @@ pub fn positive<T: crate::Real>(name: &'static str, x: T) -> Result<T> {
 ///
 /// # Example
 /// ```
-/// use eulermembrane::error::finite;
+/// use eulermembrane::finite;
 ///
 /// assert_eq!(finite("psi", -0.5), Ok(-0.5));
 /// let e = finite("psi", f64::INFINITY).unwrap_err();

@@ -16,14 +16,16 @@
 //!
 //! Worked examples, each a page to read top to bottom, are in the repository's `examples/`:
 //! `capsule_in_shear` (a capsule in shear against the small-deformation theory), `custom_law`
-//! (a user's [`membrane::SurfaceLaw`] checked with `testing::check_law`), `custom_effect` (a
-//! user's [`simulation::Effect`]), `checkpoint_restart` (a bit-for-bit restart) and
+//! (a user's [`membrane::law::SurfaceLaw`] checked with `testing::check_law`), `custom_effect` (a
+//! user's [`simulation::effect::Effect`]), `checkpoint_restart` (a bit-for-bit restart) and
 //! `custom_driver` (a time loop of one's own through [`simulation::Simulation::prepare`],
 //! `commit` and `discard`). Run one with `cargo run --release --example NAME`.
 //!
 //! # Quick start: a pressure-driven channel
 //! ```
-//! use eulermembrane::fluid::{BodyForce, FlowConfig, FlowStepper, Materials};
+//! use eulermembrane::fluid::forcing::BodyForce;
+//! use eulermembrane::fluid::momentum::Materials;
+//! use eulermembrane::fluid::stepper::{FlowConfig, FlowStepper};
 //! use eulermembrane::grid::{Boundary, Grid};
 //!
 //! // Periodic in x and z, walls at y = 0 and y = 1.
@@ -45,20 +47,20 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod diagnostics;
-pub mod error;
+mod error;
 pub mod fluid;
 pub mod grid;
 pub mod interface;
 pub mod io;
 pub mod membrane;
 pub mod prelude;
-pub mod real;
+mod real;
 pub mod simulation;
 pub mod tensor;
 #[cfg(feature = "testing")]
 pub mod testing;
 
-pub use error::{Error, Result};
+pub use error::{Error, Result, finite, positive};
 pub use real::Real;
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]

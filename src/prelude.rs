@@ -13,16 +13,18 @@
 //! ```
 
 pub use crate::fluid::{
-    BodyForce, FlowConfig, FlowStepper, Forcing, ImplicitTerm, Materials, MomentumSolver, PressureSolver,
-    ViscousScheme,
+    forcing::BodyForce, forcing::Forcing, momentum::ImplicitTerm, momentum::Materials,
+    momentum::MomentumSolver, projection::PressureSolver, stepper::FlowConfig, stepper::FlowStepper,
+    stepper::ViscousScheme,
 };
 pub use crate::grid::{Boundary, Field, Grid, SymField, VectorField};
 pub use crate::interface::shapes::{Biconcave, Circle, Ellipse, Ellipsoid, Shape, Sphere};
-pub use crate::interface::{InterfaceTransport, NormalEstimator};
-pub use crate::membrane::{NeoHookean, Skalak, SurfaceLaw};
+pub use crate::interface::{advect::InterfaceTransport, geometry::NormalEstimator};
+pub use crate::membrane::{law::NeoHookean, law::Skalak, law::SurfaceLaw};
 pub use crate::simulation::observer::{Checkpoints, Every, Observer, Progress, VtkSeries};
 pub use crate::simulation::{
-    AdaptiveDt, Bending, BendingCoupling, Effect, Elasticity, FixedDt, GsTransport, MembraneCoupling, Phase,
-    Scene, Settings, Simulation, StepReport, StepState, StepWarning, SurfaceLoad, TimeStepping, Traction,
+    Bending, BendingCoupling, Elasticity, GsTransport, MembraneCoupling, Phase, Scene, Settings, Simulation,
+    StepReport, StepWarning, SurfaceLoad, Traction, effect::Effect, effect::StepState, timestep::AdaptiveDt,
+    timestep::FixedDt, timestep::TimeStepping,
 };
 pub use crate::{Error, Real, Result};

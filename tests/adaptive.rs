@@ -1,12 +1,13 @@
-//! Adaptive time steps (`simulation::AdaptiveDt`): the rule's limits, landing on the end time,
+//! Adaptive time steps (`simulation::timestep::AdaptiveDt`): the rule's limits, landing on the end time,
 //! retries of failed steps, and the velocity-growth warning.
 
 use eulermembrane::grid::{Grid, VectorField};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::NeoHookean;
+use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::observer::Observer;
 use eulermembrane::simulation::{
-    AdaptiveDt, Effect, Phase, Scene, Simulation, StepReport, StepState, StepWarning,
+    Phase, Scene, Simulation, StepReport, StepWarning, effect::Effect, effect::StepState,
+    timestep::AdaptiveDt,
 };
 use eulermembrane::{Error, Result};
 

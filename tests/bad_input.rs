@@ -4,24 +4,28 @@
 //! checkpoint write leaves the previous checkpoint intact.
 
 use eulermembrane::diagnostics::{
-    AreaTracker, EnergyBudget, EnergyState, ModeWeight, ProfileAxes, Span, area_from_delta, centroid,
-    fit_ellipse, section_contour, streamwise_profile, surface_modes, volume,
+    area::AreaTracker, area::area_from_delta, energy::EnergyBudget, energy::EnergyState, modes::ModeWeight,
+    modes::surface_modes, profile::ProfileAxes, profile::Span, profile::streamwise_profile,
+    taylor::fit_ellipse, taylor::section_contour, volume::centroid, volume::volume,
 };
 use eulermembrane::fluid::{
-    Coefficient, FlowConfig, FlowStepper, KrylovParams, Location, Materials, PredictorSolver, SorParams,
-    SpectralSolver,
+    krylov::KrylovParams, momentum::Coefficient, momentum::Materials, sor::SorParams, spectral::Location,
+    spectral::SpectralSolver, stepper::FlowConfig, stepper::FlowStepper, stepper::PredictorSolver,
 };
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{
     Biconcave, Circle, Ellipse, Ellipsoid, SignedDistanceFn, Smoothing, Sphere,
 };
-use eulermembrane::interface::{self, AdvectionParams, Advector, Carried, Geometry, NormalScheme};
+use eulermembrane::interface::{
+    self, advect::AdvectionParams, advect::Advector, advect::Carried, geometry::Geometry,
+    geometry::NormalScheme,
+};
 use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use eulermembrane::io::vtk::VtiWriter;
-use eulermembrane::membrane::{self, BendingStress, NeoHookean, Skalak};
+use eulermembrane::membrane::{self, bending::BendingStress, law::NeoHookean, law::Skalak};
 use eulermembrane::simulation::{
-    AdaptiveDt, Bending, Effect, Elasticity, Phase, Scene, Settings, Setup, Simulation, StepState,
-    StepWarning, TimeStepping, Traction,
+    Bending, Elasticity, Phase, Scene, Settings, Simulation, StepWarning, Traction, effect::Effect,
+    effect::Setup, effect::StepState, timestep::AdaptiveDt, timestep::TimeStepping,
 };
 use eulermembrane::{Error, Result};
 use proptest::prelude::*;
@@ -248,12 +252,12 @@ proptest! {
         width in prop_oneof![-1.0..=0.0f64, non_finite()],
     ) {
         let g = small();
-        prop_assert_eq!(param_name(&refused("membrane::Band::new", || membrane::Band::new(&g, eps))), "epsilon");
-        prop_assert!(membrane::Band::new(&g, ok_eps).is_ok());
-        refused("interface::PhiRange::new", || interface::PhiRange::new(lo, lo + width));
-        refused("interface::PhiRange::new", || interface::PhiRange::new(-lo.abs() - 1e-3, 0.5));
-        refused("interface::PhiRange::new", || interface::PhiRange::new(0.5, 1.0 + lo.abs() + 1e-3));
-        prop_assert!(interface::PhiRange::new(0.0, 1.0).is_ok());
+        prop_assert_eq!(param_name(&refused("membrane::band::Band::new", || membrane::band::Band::new(&g, eps))), "epsilon");
+        prop_assert!(membrane::band::Band::new(&g, ok_eps).is_ok());
+        refused("interface::geometry::PhiRange::new", || interface::geometry::PhiRange::new(lo, lo + width));
+        refused("interface::geometry::PhiRange::new", || interface::geometry::PhiRange::new(-lo.abs() - 1e-3, 0.5));
+        refused("interface::geometry::PhiRange::new", || interface::geometry::PhiRange::new(0.5, 1.0 + lo.abs() + 1e-3));
+        prop_assert!(interface::geometry::PhiRange::new(0.0, 1.0).is_ok());
         let params = AdvectionParams { beta, ..AdvectionParams::default() };
         refused("Advector::new", || Advector::new(&g, params, Carried::PhiAndCurvature));
         let params = AdvectionParams { tiny, ..AdvectionParams::default() };
@@ -461,9 +465,9 @@ proptest! {
         dt in not_positive(),
     ) {
         let law = NeoHookean::new(1.0).unwrap();
-        prop_assert_eq!(param_name(&refused("uniaxial_tension", || membrane::uniaxial_tension(&law, bad))), "lambda1");
-        prop_assert_eq!(param_name(&refused("equibiaxial_tension", || membrane::equibiaxial_tension(&law, bad))), "lambda");
-        refused("equibiaxial_stretch", || membrane::equibiaxial_stretch(&law, nf));
+        prop_assert_eq!(param_name(&refused("uniaxial_tension", || membrane::loading::uniaxial_tension(&law, bad))), "lambda1");
+        prop_assert_eq!(param_name(&refused("equibiaxial_tension", || membrane::loading::equibiaxial_tension(&law, bad))), "lambda");
+        refused("equibiaxial_stretch", || membrane::loading::equibiaxial_stretch(&law, nf));
         let mut budget = EnergyBudget::new();
         let ok = EnergyState { time: 0.0, kinetic: 1.0, elastic: 0.0, dissipation_rate: 0.0, body_power: 0.0, integrals: None };
         budget.record(ok).unwrap();

@@ -5,10 +5,10 @@
 
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::NeoHookean;
+use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{
-    AdaptiveDt, CapsuleStorage, Contact, Elasticity, Phase, Scene, Settings, Simulation, SurfaceLoad,
-    Traction, min_gap_cells,
+    CapsuleStorage, Elasticity, Phase, Scene, Settings, Simulation, SurfaceLoad, Traction, contact::Contact,
+    contact::min_gap_cells, timestep::AdaptiveDt,
 };
 
 /// A neo-Hookean sphere of radius 0.25 (4 cells) carried along x across the periodic seam by a
@@ -115,7 +115,7 @@ fn boxed_against_whole_along_a_wall_axis(z: f64, steps: usize) -> ([isize; 2], [
     assert!(ea > 0.0);
     // The box grid is periodic along z: its centroid takes minimum images; on the grid it is
     // the whole grid's.
-    let on_grid = eulermembrane::diagnostics::centroid(g, &phi_on_grid(&boxed)).unwrap();
+    let on_grid = eulermembrane::diagnostics::volume::centroid(g, &phi_on_grid(&boxed)).unwrap();
     let d = [
         (whole.centroid(0).unwrap()[2] - on_grid[2]).abs(),
         max_difference(&phi_on_grid(&boxed), whole.phi(0).unwrap(), g),

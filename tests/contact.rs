@@ -9,8 +9,10 @@
 use eulermembrane::Result;
 use eulermembrane::grid::{Grid, VectorField};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::NeoHookean;
-use eulermembrane::simulation::{Contact, Effect, Phase, Scene, StepState, min_gap_cells};
+use eulermembrane::membrane::law::NeoHookean;
+use eulermembrane::simulation::{
+    Phase, Scene, contact::Contact, contact::min_gap_cells, effect::Effect, effect::StepState,
+};
 
 /// Cells per unit length.
 const N: f64 = 16.0;

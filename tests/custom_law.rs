@@ -14,17 +14,17 @@
 //! derivative `W_c1c2 = −ψ G_s/(2 c2²)` is not zero, which exercises the term that the paper's
 //! (B.4) drops.
 
-use eulermembrane::error::{Error, positive};
 use eulermembrane::membrane::law::check_stress_free;
 use eulermembrane::membrane::{
-    NeoHookean, SurfaceLaw, jacobian, small_strain_moduli, stress, stress_and_jacobian, tension_invariants,
-    uniaxial_tension,
+    law::NeoHookean, law::SurfaceLaw, law::small_strain_moduli, loading::uniaxial_tension, stress::jacobian,
+    stress::stress, stress::stress_and_jacobian, stress::tension_invariants,
 };
 use eulermembrane::tensor::Sym;
 use eulermembrane::testing::{
     LawCheckError, MembraneState, Property, arb_probe, check_at, check_derivatives, check_law, config,
     rotation,
 };
+use eulermembrane::{Error, positive};
 use eulermembrane::{Real, Result};
 use proptest::prelude::*;
 

@@ -4,11 +4,16 @@
 //! Each test prints the measured errors (run with `--nocapture` to see them).
 
 use eulermembrane::diagnostics::{
-    AreaTracker, DissipationForm, EnergyBudget, EnergyState, ModeWeight, ProfileAxes, Span, area_from_delta,
-    body_force_power, centroid, dilation_rate, elastic_energy, fit_ellipse, kinetic_energy, mode_amplitudes,
-    section_contour, streamwise_profile, surface_modes, taylor_deformation, viscous_dissipation, volume,
+    area::AreaTracker, area::area_from_delta, area::dilation_rate, energy::DissipationForm,
+    energy::EnergyBudget, energy::EnergyState, energy::body_force_power, energy::elastic_energy,
+    energy::kinetic_energy, energy::viscous_dissipation, modes::ModeWeight, modes::mode_amplitudes,
+    modes::surface_modes, profile::ProfileAxes, profile::Span, profile::streamwise_profile,
+    taylor::fit_ellipse, taylor::section_contour, taylor::taylor_deformation, volume::centroid,
+    volume::volume,
 };
-use eulermembrane::fluid::{Coefficient, FlowConfig, FlowStepper, Materials};
+use eulermembrane::fluid::{
+    momentum::Coefficient, momentum::Materials, stepper::FlowConfig, stepper::FlowStepper,
+};
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField};
 use eulermembrane::{Error, Real};
 use std::f64::consts::PI;
@@ -474,7 +479,7 @@ fn energy_budget_of_a_decaying_taylor_green_vortex_closes() {
 /// With step integrals the budget takes their differences, not the trapezoid of the rates.
 #[test]
 fn budget_uses_step_integrals_when_given() {
-    use eulermembrane::diagnostics::StepIntegrals;
+    use eulermembrane::diagnostics::energy::StepIntegrals;
     let mut budget = EnergyBudget::new();
     let state = |t: f64, d: f64, w: f64| EnergyState {
         time: t,

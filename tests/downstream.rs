@@ -4,10 +4,11 @@
 
 use eulermembrane::grid::{Boundary, Grid, VectorField};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw};
+use eulermembrane::membrane::{law::NeoHookean, law::Skalak, law::SurfaceLaw};
 use eulermembrane::simulation::observer::{Checkpoints, Observer, VtkSeries};
 use eulermembrane::simulation::{
-    Effect, Elasticity, EnergyRole, Phase, Scene, Simulation, StepReport, StepState, StepWarning,
+    Elasticity, Phase, Scene, Simulation, StepReport, StepWarning, effect::Effect, effect::EnergyRole,
+    effect::StepState,
 };
 use eulermembrane::{Error, Real, Result};
 

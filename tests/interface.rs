@@ -8,7 +8,9 @@ use eulermembrane::interface::shapes::{
     Biconcave, Circle, Ellipse, Ellipsoid, Shape, SignedDistanceFn, Smoothing, Sphere, convolved_curvature,
     smoothed_fields, smoothed_phi,
 };
-use eulermembrane::interface::{AdvectionParams, Advector, Carried, advect::cfl_number};
+use eulermembrane::interface::{
+    advect::AdvectionParams, advect::Advector, advect::Carried, advect::cfl_number,
+};
 use eulermembrane::{Error, Real};
 use proptest::prelude::*;
 use std::f64::consts::PI;

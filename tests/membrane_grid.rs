@@ -14,13 +14,15 @@
 #![allow(clippy::needless_range_loop)]
 
 use eulermembrane::fluid::{
-    FlowConfig, FlowStepper, Forcing, ImplicitTerm, Materials, PredictorSolver, SorParams,
+    forcing::Forcing, momentum::ImplicitTerm, momentum::Materials, sor::SorParams, stepper::FlowConfig,
+    stepper::FlowStepper, stepper::PredictorSolver,
 };
 use eulermembrane::grid::{Field, Grid, SymField, VectorField};
 use eulermembrane::membrane::{
-    Band, BendingForm, BendingStress, InPlaneElasticity, NeoHookean, Skalak, StrainAdvection,
-    StrainTransport, SurfaceLaw, advective_tendency, advective_tendency_in_frame, equibiaxial_tension,
-    fill_projector, mean_curvature_at, reset_outside_band,
+    band::Band, bending::BendingForm, bending::BendingStress, bending::mean_curvature_at,
+    force::InPlaneElasticity, law::NeoHookean, law::Skalak, law::SurfaceLaw, loading::equibiaxial_tension,
+    strain::StrainAdvection, strain::StrainTransport, strain::advective_tendency,
+    strain::advective_tendency_in_frame, strain::fill_projector, strain::reset_outside_band,
 };
 use eulermembrane::tensor::{Sym, cross, projector};
 use std::f64::consts::PI;
@@ -1101,13 +1103,13 @@ fn upper_moment(g: &Grid<f64>, f: &VectorField<f64>) -> f64 {
 
 /// The semi-implicit bending operator is the rate of change of the bending force: on a flat
 /// membrane moved by the normal velocity `cos(k x) e_z`, `−L(v)` from
-/// [`BendingImplicit`](eulermembrane::membrane::BendingImplicit) (weight `α Δt = 1`) against the
+/// [`BendingImplicit`](eulermembrane::membrane::bending_implicit::BendingImplicit) (weight `α Δt = 1`) against the
 /// finite difference of the bending force of the shapes `a = 0` and `a = 1e-4` (cells), at 32
 /// and 64 cells per wavelength. Measured: ratios 1.0033 (n = 32) and 1.0008 (n = 64); the term
 /// resists the motion (the moment of `−L(v)` is positive).
 #[test]
 fn semi_implicit_bending_is_the_rate_of_the_force() {
-    use eulermembrane::membrane::BendingImplicit;
+    use eulermembrane::membrane::bending_implicit::BendingImplicit;
     for n in [32, 64] {
         let eps = 1e-4;
         let (g, delta, normal, band) = wavy_slab(n, 0.0);

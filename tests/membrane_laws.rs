@@ -10,8 +10,9 @@
 //! `E_s ∈ [0.1, 10]`, `α ∈ [0, 50]`. 256 cases per property.
 
 use eulermembrane::membrane::{
-    NeoHookean, Skalak, SurfaceLaw, TensionField, equibiaxial_stretch, equibiaxial_tension,
-    tension_invariants, uniaxial_tension,
+    law::NeoHookean, law::Skalak, law::SurfaceLaw, loading::equibiaxial_stretch,
+    loading::equibiaxial_tension, loading::uniaxial_tension, stress::tension_invariants,
+    wrinkling::TensionField,
 };
 use eulermembrane::testing::{
     MembraneState, Probe, Property, arb_probe, arb_rotation, arb_unit, check_at, check_law, config,

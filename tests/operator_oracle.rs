@@ -24,7 +24,9 @@ use approx::{assert_abs_diff_eq, assert_relative_eq};
 use eulermembrane::fluid::krylov::{KrylovParams, KrylovWorkspace, bicgstab, pcg};
 use eulermembrane::fluid::momentum::Predictor;
 use eulermembrane::fluid::projection::Projection;
-use eulermembrane::fluid::{Coefficient, HelmholtzPrecond, LinOp, Materials};
+use eulermembrane::fluid::{
+    krylov::LinOp, momentum::Coefficient, momentum::HelmholtzPrecond, momentum::Materials,
+};
 use eulermembrane::grid::ops::{divergence, gradient};
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField};
 use faer::linalg::solvers::Solve;

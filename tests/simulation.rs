@@ -2,12 +2,12 @@
 //! restart, refused scenes, and small physical checks.
 
 use eulermembrane::Error;
-use eulermembrane::fluid::{FlowConfig, PredictorSolver, SorParams};
+use eulermembrane::fluid::{sor::SorParams, stepper::FlowConfig, stepper::PredictorSolver};
 use eulermembrane::grid::ops::cell_vector;
 use eulermembrane::grid::{Boundary, Grid};
-use eulermembrane::interface::NormalScheme;
+use eulermembrane::interface::geometry::NormalScheme;
 use eulermembrane::interface::shapes::{Circle, Sphere};
-use eulermembrane::membrane::{BendingForm, NeoHookean, Skalak};
+use eulermembrane::membrane::{bending::BendingForm, law::NeoHookean, law::Skalak};
 use eulermembrane::simulation::{
     Bending, Elasticity, GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings, Simulation,
     SurfaceLoad, Traction,
@@ -266,7 +266,8 @@ fn a_prestretched_capsule_holds_a_pressure_jump() {
     let g = sim.grid();
     let p = sim.pressure();
     let jump = p.values()[g.idx_u(8, 8, 8)] - p.values()[g.idx_u(0, 0, 0)];
-    let tension = eulermembrane::membrane::equibiaxial_tension(&NeoHookean::new(1.0).unwrap(), 1.05).unwrap();
+    let tension =
+        eulermembrane::membrane::loading::equibiaxial_tension(&NeoHookean::new(1.0).unwrap(), 1.05).unwrap();
     let expected = 2.0 * tension / 0.3;
     assert!((jump / expected - 1.0).abs() < 0.25, "jump {jump} vs 2T/r = {expected}");
     let drift = (sim.volume(0).unwrap() - v0).abs() / v0;
@@ -312,7 +313,8 @@ fn membrane_force_of_a_prestretched_capsule(traction: Traction) {
     }
     assert!(sum.iter().all(|s| s.abs() < 1e-12 * abs), "net force {sum:?} of {abs}");
     let tension =
-        eulermembrane::membrane::equibiaxial_tension(&NeoHookean::new(1.0).unwrap(), stretch).unwrap();
+        eulermembrane::membrane::loading::equibiaxial_tension(&NeoHookean::new(1.0).unwrap(), stretch)
+            .unwrap();
     let exact = -8.0 * std::f64::consts::PI * r * r * tension;
     // Measured: 0.85 % (smoothed) and 1.08 % (sharp) high at 4.8 cells per radius.
     assert!((moment / exact - 1.0).abs() < 0.02, "{traction:?}: first moment {moment} vs {exact}");
@@ -383,7 +385,7 @@ fn two_capsules_passing_close_do_not_merge() {
 /// counts `dt Phi(v^{n+1} - v^n)/4` too much dissipation per step, most at the first step).
 #[test]
 fn the_energy_ledger_closes_the_budget_of_a_starting_channel_flow() {
-    use eulermembrane::diagnostics::EnergyBudget;
+    use eulermembrane::diagnostics::energy::EnergyBudget;
     let wall = Boundary::Wall { velocity: [0.0; 3] };
     let bc = [[Boundary::Periodic; 2], [Boundary::Periodic; 2], [wall, wall]];
     let grid = Grid::new([4, 4, 16], [0.0; 3], [1.0; 3], bc).unwrap();
@@ -600,7 +602,7 @@ fn both_transport_options_lower_the_energy_error() {
 }
 
 /// The sharp coupling (`Traction::Sharp`) on the same squashed sphere: the membrane velocity
-/// and the force are adjoint (`membrane::SurfaceExtension`), so the energy budget closes about
+/// and the force are adjoint (`membrane::extension::SurfaceExtension`), so the energy budget closes about
 /// as well as with the smoothed coupling and the same projection of `G_s` (measured 3.23e-2 of
 /// the peak elastic energy, against 2.82e-2 for `GsTransport::Tangential`); `G_s` stays
 /// tangential and the volume is kept to round-off (`phi` is carried by the fluid velocity).
@@ -614,7 +616,7 @@ fn sharp_traction_keeps_the_energy_budget_and_the_volume() {
 
 /// The re-sampled sharp shell (`Traction::SharpResampled`) on the same squashed sphere: its
 /// outer layers take `G_s` from the core and move their stress onto it by the transpose
-/// (`membrane::OuterLayers`), so the force is the work-conjugate of the whole shell's energy
+/// (`membrane::outer_layers::OuterLayers`), so the force is the work-conjugate of the whole shell's energy
 /// and the budget closes better than the sharp shell's (measured 1.57e-2 of the peak elastic
 /// energy, against 3.23e-2 for `Traction::Sharp`; 4.7e-3 at N = 64).
 #[test]

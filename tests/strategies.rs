@@ -4,13 +4,13 @@
 //! that fails fails the step and leaves the state as it was.
 
 use eulermembrane::fluid::{
-    Coefficient, FlowConfig, KrylovInfo, KrylovMomentum, MomentumSolver, MomentumSystem, PressureSolver,
-    SpectralPcg,
+    krylov::KrylovInfo, momentum::Coefficient, momentum::KrylovMomentum, momentum::MomentumSolver,
+    momentum::MomentumSystem, projection::PressureSolver, projection::SpectralPcg, stepper::FlowConfig,
 };
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::{
-    AdvectionInfo, AdvectionParams, Advector, Geometry, InterfaceTransport, NormalEstimator, NormalScheme,
-    PhiRange,
+    advect::AdvectionInfo, advect::AdvectionParams, advect::Advector, advect::InterfaceTransport,
+    geometry::Geometry, geometry::NormalEstimator, geometry::NormalScheme, geometry::PhiRange,
 };
 use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use eulermembrane::prelude::*;

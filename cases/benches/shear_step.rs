@@ -13,7 +13,7 @@ mod common;
 
 use common::CpuTime;
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use eulermembrane::simulation::{AdaptiveDt, Settings, Traction};
+use eulermembrane::simulation::{Settings, Traction, timestep::AdaptiveDt};
 use eulermembrane_cases::Terms;
 use eulermembrane_cases::shear::{self, ShearCase, Steps};
 use std::time::Duration;

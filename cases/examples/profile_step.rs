@@ -7,10 +7,10 @@
 //!
 //! Prints wall and CPU time per step (CPU time of all threads: the machine may be shared).
 use eulermembrane::Real;
-use eulermembrane::fluid::{FlowConfig, FlowStepper, Materials};
+use eulermembrane::fluid::{momentum::Materials, stepper::FlowConfig, stepper::FlowStepper};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::Skalak;
+use eulermembrane::membrane::law::Skalak;
 use eulermembrane::simulation::{Phase, Scene};
 use eulermembrane_cases as common;
 use std::time::Instant;

@@ -27,7 +27,7 @@
 //! gs_transport=... epsilon=...`
 //! (`t` the time reached; a failed step ends the run there, and the figures show the last good
 //! state; `peak_gs_normal` and `peak_gs_trace` the largest `|G_s n|` and `tr G_s` over the
-//! membranes and the steps, `diagnostics::gs_tangency`: the first is 0 with `--gs-transport tangential`,
+//! membranes and the steps, `diagnostics::tangency::gs_tangency`: the first is 0 with `--gs-transport tangential`,
 //! and its growth on the rim next to the walls is what precedes the failure of the paper's
 //! transport). The progress lines print the signature and both as the run goes, with the centre
 //! of the cell where `|G_s n|` is largest and `phi` there (which layer of the band it is).
@@ -66,11 +66,14 @@
 use eulermembrane_cases as common;
 
 use common::{Args, BoxResult, Terms, num, result};
-use eulermembrane::diagnostics::{AreaTracker, ProfileAxes, Span, gs_tangency, streamwise_profile};
+use eulermembrane::diagnostics::{
+    area::AreaTracker, profile::ProfileAxes, profile::Span, profile::streamwise_profile,
+    tangency::gs_tangency,
+};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Biconcave;
 use eulermembrane::io::vtk::PvdSeries;
-use eulermembrane::membrane::{BendingForm, Skalak};
+use eulermembrane::membrane::{bending::BendingForm, law::Skalak};
 use eulermembrane::simulation::{
     BendingCoupling, CapsuleStorage, GsTransport, MembraneCoupling, Phase, Scene, Settings, Simulation,
     Traction,

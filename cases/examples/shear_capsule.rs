@@ -23,7 +23,7 @@
 //! time and stored energy (0 for a coupling that conserves energy; > 0 lost, < 0 created);
 //! `traction`, `law` and `box` say how it ran.
 //!
-//! Steps: adaptive by default (`simulation::AdaptiveDt`: Courant target `--cfl`, the membrane
+//! Steps: adaptive by default (`simulation::timestep::AdaptiveDt`: Courant target `--cfl`, the membrane
 //! and bending limits, at most `--max-dt`); `--dt DT` takes fixed steps of `DT` instead (the
 //! paper's is `0.001 (128/N)^2`; with `--bending` keep within the bending rule
 //! `simulation::stability::bending_dt_limit`).
@@ -50,7 +50,7 @@
 //! cells per radius to a third and runs to `t` = 12; `sharp` leaves the outer layers their own
 //! `G_s`; `smoothed` is the paper's and the library's default),
 //! `--law neo_hookean|tension_field` (the membrane: the neo-Hookean law (2.5), default, or its
-//! tension-field relaxation `membrane::TensionField`, a membrane that wrinkles instead of
+//! tension-field relaxation `membrane::wrinkling::TensionField`, a membrane that wrinkles instead of
 //! carrying compression),
 //! `--epsilon E` (`Settings::epsilon`, the band `delta h >= E`; 0.01), `--beta B` (the MTHINC
 //! sharpness of the profile, `Settings::with_beta`; 1),
@@ -65,9 +65,9 @@ use eulermembrane_cases as common;
 
 use common::shear::{self, Energy, ShearCase, ShearLaw, ShearOutcome, Steps};
 use common::{Args, BoxResult, Terms, num, reference_dir, result};
-use eulermembrane::fluid::ViscousScheme;
-use eulermembrane::membrane::{BendingForm, StrainAdvection};
-use eulermembrane::simulation::{AdaptiveDt, GsTransport, ReferenceArea, Settings, Traction};
+use eulermembrane::fluid::stepper::ViscousScheme;
+use eulermembrane::membrane::{bending::BendingForm, strain::StrainAdvection};
+use eulermembrane::simulation::{GsTransport, ReferenceArea, Settings, Traction, timestep::AdaptiveDt};
 use eulermembrane_cases::csv::{CsvWriter, read_xy};
 use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;

@@ -23,7 +23,7 @@ use eulermembrane_cases as common;
 use common::Args;
 use common::vortex::{self, Snap, VortexCase};
 use eulermembrane::grid::{Field, Grid};
-use eulermembrane::interface::{CellQuadrature, NormalScheme};
+use eulermembrane::interface::{geometry::NormalScheme, mthinc::CellQuadrature};
 use eulermembrane_cases::plot::{Figure, LineStyle, Panels, contour_segments};
 use std::fmt::Write as _;
 

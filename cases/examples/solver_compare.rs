@@ -7,7 +7,10 @@
 //! `cargo run --release --example solver_compare [-- --n 64 --steps 3]`
 use eulermembrane_cases as common;
 
-use eulermembrane::fluid::{FlowConfig, FlowStepper, KrylovParams, Materials, PredictorSolver, SorParams};
+use eulermembrane::fluid::{
+    krylov::KrylovParams, momentum::Materials, sor::SorParams, stepper::FlowConfig, stepper::FlowStepper,
+    stepper::PredictorSolver,
+};
 use eulermembrane::grid::{Boundary, Grid};
 use std::time::Instant;
 

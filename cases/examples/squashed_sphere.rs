@@ -49,11 +49,11 @@
 use eulermembrane_cases as common;
 
 use common::{Args, num, order, result};
-use eulermembrane::diagnostics::{EnergyBudget, ModeWeight, surface_modes};
+use eulermembrane::diagnostics::{energy::EnergyBudget, modes::ModeWeight, modes::surface_modes};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::vtk::PvdSeries;
-use eulermembrane::membrane::{NeoHookean, StrainAdvection};
+use eulermembrane::membrane::{law::NeoHookean, strain::StrainAdvection};
 use eulermembrane::simulation::{
     Elasticity, GsTransport, Phase, ReferenceArea, Scene, Settings, Simulation, Traction,
 };
@@ -290,13 +290,14 @@ fn history(
 fn plots(
     out: &std::path::Path,
     n: usize,
-    e: &[eulermembrane::diagnostics::EnergySample],
+    e: &[eulermembrane::diagnostics::energy::EnergySample],
     samples: &[Sample],
     sections: &[(f64, Field<f64>)],
     g: &Grid<f64>,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let t: Vec<f64> = e.iter().map(|s| s.time).collect();
-    let col = |f: fn(&eulermembrane::diagnostics::EnergySample) -> f64| e.iter().map(f).collect::<Vec<_>>();
+    let col =
+        |f: fn(&eulermembrane::diagnostics::energy::EnergySample) -> f64| e.iter().map(f).collect::<Vec<_>>();
     let e0 = e[0].total;
     let mut fig = Figure::new(format!("energy budget (Fig. 6), N = {n}")).x_label("t").y_label("energy");
     fig.line(&t, &col(|s| s.kinetic), "kinetic");

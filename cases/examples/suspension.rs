@@ -5,7 +5,7 @@
 //! `rho = 1`, `mu = 100` inside and outside (`Re = rho a^2 / mu = 0.01`), the membrane
 //! `E_s = mu a / Ca` (neo-Hookean (2.5)); the flow starts as the undisturbed shear `u = z`, and
 //! time is in units of the inverse shear rate. The capsules are kept apart by
-//! `simulation::Contact` (a disjoining pressure `--contact` times `mu gamma_dot` at zero gap,
+//! `simulation::contact::Contact` (a disjoining pressure `--contact` times `mu gamma_dot` at zero gap,
 //! within `--contact-range` cells).
 //!
 //! Measured every `--sample-every` time units: the relative effective viscosity `mu_eff / mu`
@@ -29,7 +29,7 @@
 //! deviation of the wall estimate over them; `min_gap_cells` the smallest gap over every step;
 //! `failed_at` the time of a step that failed (`none`: the run reached `--t-end`).
 //!
-//! Steps: adaptive (`simulation::AdaptiveDt`, Courant target `--cfl`), at most `--max-dt` and at
+//! Steps: adaptive (`simulation::timestep::AdaptiveDt`, Courant target `--cfl`), at most `--max-dt` and at
 //! most the contact's explicit limit `0.4 mu r / (p0 h)` (the step at which `tests/contact.rs`
 //! is stable; `Contact` declares no limit of its own).
 //!
@@ -66,10 +66,10 @@ use eulermembrane::diagnostics::suspension::{
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField};
 use eulermembrane::interface::placement::{Domain, Placed, Placement, Prototype, Target};
 use eulermembrane::io::vtk::PvdSeries;
-use eulermembrane::membrane::NeoHookean;
+use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{
-    AdaptiveDt, CapsuleStorage, Contact, Elasticity, Phase, Scene, Settings, Simulation, TimeStepping,
-    Traction, min_gap_cells,
+    CapsuleStorage, Elasticity, Phase, Scene, Settings, Simulation, Traction, contact::Contact,
+    contact::min_gap_cells, timestep::AdaptiveDt, timestep::TimeStepping,
 };
 use std::path::Path;
 use std::time::Instant;

@@ -8,7 +8,7 @@
 use eulermembrane_cases as common;
 use eulermembrane_cases::flows;
 
-use eulermembrane::fluid::{PredictorSolver, SorParams};
+use eulermembrane::fluid::{sor::SorParams, stepper::PredictorSolver};
 
 fn main() {
     let args = common::Args::parse(include_str!("taylor_green.rs"));

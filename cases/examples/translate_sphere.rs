@@ -13,7 +13,9 @@
 
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
-use eulermembrane::interface::{AdvectionParams, Advector, Carried, NormalScheme};
+use eulermembrane::interface::{
+    advect::AdvectionParams, advect::Advector, advect::Carried, geometry::NormalScheme,
+};
 use std::io::Write as _;
 
 use eulermembrane_cases as common;

@@ -9,9 +9,9 @@
 //!    `Skalak::uniaxial_tension`): `T1/G_s = λ1^{3/2} − λ1^{-3/2}` (neo-Hookean) and
 //!    `T1/G_s = (λ1/λ2)(λ1² − 1)(1 + α λ2²/(1 + α λ1⁴))`, `λ2² = (1 + α λ1²)/(1 + α λ1⁴)`
 //!    (Skalak);
-//! 2. by the generic code the grid solver uses — the stress (2.4) of `membrane::stress` from
+//! 2. by the generic code the grid solver uses — the stress (2.4) of `membrane::stress::stress` from
 //!    the laws' energy derivatives, with `λ2` found by a safeguarded Newton iteration on
-//!    `T2 = 0` (`membrane::uniaxial_tension`);
+//!    `T2 = 0` (`membrane::loading::uniaxial_tension`);
 //! 3. against the points digitised from Barthès-Biesel, Diaz & Dhenin, J. Fluid Mech. 460
 //!    (2002), for neo-Hookean and Skalak with area-dilation coefficient `C = 1`.
 //!
@@ -36,7 +36,7 @@
 
 use eulermembrane_cases as common;
 
-use eulermembrane::membrane::{NeoHookean, Skalak, SurfaceLaw, uniaxial_tension};
+use eulermembrane::membrane::{law::NeoHookean, law::Skalak, law::SurfaceLaw, loading::uniaxial_tension};
 use std::fmt::Write as _;
 
 use common::BoxResult;

@@ -3,7 +3,7 @@
 
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::placement::{Domain, Placement, Prototype, Target};
-use eulermembrane::membrane::NeoHookean;
+use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{Elasticity, Phase, Scene, Settings, Simulation, Traction};
 
 /// The capillary number `mu a U / (E_s L)`-like scale of the membrane: `E_s = mu a / CA` with

@@ -1,7 +1,10 @@
 //! Validation flows shared by the examples (`taylor_green`, `channel_flow`,
 //! `two_layer_couette`) and `tests/flow.rs`: each runs the public API and returns measured errors.
 
-use eulermembrane::fluid::{BodyForce, FlowConfig, FlowStepper, Materials, PredictorSolver};
+use eulermembrane::fluid::{
+    forcing::BodyForce, momentum::Materials, stepper::FlowConfig, stepper::FlowStepper,
+    stepper::PredictorSolver,
+};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use std::f64::consts::PI;
 

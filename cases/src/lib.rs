@@ -20,7 +20,7 @@
 //!   `cases/reference` ([`reference_dir`]).
 #![warn(missing_docs)]
 
-use eulermembrane::membrane::{BendingForm, StrainAdvection, SurfaceLaw};
+use eulermembrane::membrane::{bending::BendingForm, law::SurfaceLaw, strain::StrainAdvection};
 use eulermembrane::simulation::{Bending, BendingCoupling, Elasticity, MembraneCoupling, Traction};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

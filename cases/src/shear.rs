@@ -12,12 +12,16 @@
 use crate::Terms;
 use crate::csv::CsvWriter;
 use eulermembrane::Real;
-use eulermembrane::diagnostics::{body_force_power, ellipsoid_fit, taylor_deformation};
+use eulermembrane::diagnostics::{
+    ellipsoid::ellipsoid_fit, energy::body_force_power, taylor::taylor_deformation,
+};
 use eulermembrane::grid::{Boundary, Grid, VectorField};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::vtk::PvdSeries;
-use eulermembrane::membrane::{NeoHookean, TensionField};
-use eulermembrane::simulation::{AdaptiveDt, FixedDt, Phase, Scene, Settings, Simulation, TimeStepping};
+use eulermembrane::membrane::{law::NeoHookean, wrinkling::TensionField};
+use eulermembrane::simulation::{
+    Phase, Scene, Settings, Simulation, timestep::AdaptiveDt, timestep::FixedDt, timestep::TimeStepping,
+};
 use std::path::Path;
 use std::time::Instant;
 

@@ -6,7 +6,7 @@
 use eulermembrane::Error;
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::NeoHookean;
+use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{
     Bending, BendingCoupling, Elasticity, MembraneCoupling, Phase, Scene, Simulation,
 };

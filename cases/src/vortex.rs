@@ -12,7 +12,10 @@
 use eulermembrane::Real;
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{Ellipse, Smoothing, smoothed_fields};
-use eulermembrane::interface::{AdvectionParams, Advector, Carried, CellQuadrature, NormalScheme};
+use eulermembrane::interface::{
+    advect::AdvectionParams, advect::Advector, advect::Carried, geometry::NormalScheme,
+    mthinc::CellQuadrature,
+};
 use std::f64::consts::PI;
 use std::time::Instant;
 

@@ -1,7 +1,8 @@
 //! The flow stepper against analytic solutions at small N (the large runs are the examples
 //! `taylor_green`, `channel_flow`, `two_layer_couette`, `solver_compare`).
 use eulermembrane::fluid::{
-    Coefficient, FlowConfig, FlowStepper, Forcing, KrylovParams, Materials, PredictorSolver, SorParams,
+    forcing::Forcing, krylov::KrylovParams, momentum::Coefficient, momentum::Materials, sor::SorParams,
+    stepper::FlowConfig, stepper::FlowStepper, stepper::PredictorSolver,
 };
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField, ops::par_interior_update};
 use eulermembrane::{Error, Real};
@@ -195,7 +196,7 @@ fn a_restarted_run_is_bit_for_bit_identical() {
     let mu = Field::from_cell_fn(&grid, |x: [f64; 3]| 0.1 + 0.05 * (6.0 * x[1]).sin().powi(2));
     let materials = Materials { rho: Coefficient::Uniform(1.0), mu: Coefficient::Field(mu) };
     let make = || FlowStepper::new(&grid, materials.clone(), FlowConfig::default()).unwrap();
-    let force = eulermembrane::fluid::BodyForce::new([0.5, 0.0, 0.1]).unwrap();
+    let force = eulermembrane::fluid::forcing::BodyForce::new([0.5, 0.0, 0.1]).unwrap();
     let mut a = make();
     a.set_velocity(|x| [0.0, 0.1 * (6.0 * x[0]).sin(), 0.0]).unwrap();
     for _ in 0..4 {

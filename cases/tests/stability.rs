@@ -5,7 +5,7 @@
 //! per case and the `dt` rule's measurements are in the `stability` example and
 //! `docs/stability.md`.
 
-use eulermembrane::membrane::BendingForm;
+use eulermembrane::membrane::bending::BendingForm;
 use eulermembrane::simulation::MembraneCoupling;
 use eulermembrane::simulation::stability::{C_EXPLICIT, C_QUASI_IMPLICIT, membrane_dt_limit};
 use eulermembrane_cases::stability::{Case, Layout, Outcome, build, cases, run};

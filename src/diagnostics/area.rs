@@ -89,7 +89,7 @@ pub fn dilation_rate<T: Real>(
 /// the start of the step (time level `n`).
 ///
 /// ```
-/// use eulermembrane::diagnostics::AreaTracker;
+/// use eulermembrane::diagnostics::area::AreaTracker;
 /// let tracker = AreaTracker::new(4.0 * std::f64::consts::PI)?;
 /// assert_eq!(tracker.steps(), 0);
 /// assert!((tracker.relative() - 1.0).abs() < 1e-15);

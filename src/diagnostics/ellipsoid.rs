@@ -18,7 +18,7 @@
 //!
 //! For the shear flow of Sec. 3.3 (flow along x, velocity gradient along z) the longest and
 //! shortest axes lie in the x-z plane by symmetry, so `D` here is the deformation of the
-//! section fit ([`taylor_deformation`](super::taylor_deformation) with `normal_axis = 1`) measured
+//! section fit ([`taylor_deformation`](super::taylor::taylor_deformation) with `normal_axis = 1`) measured
 //! on the whole capsule, and [`EllipsoidFit::inclination_deg`] with `normal_axis = 1` is its
 //! inclination, from x towards z.
 //!
@@ -67,13 +67,13 @@ impl EllipsoidFit {
     /// Inclination of the longest axis, projected onto the plane normal to `normal_axis`, from
     /// the first in-plane axis of [`section_axes`] towards the second, degrees in `(-90, 90]`:
     /// with `normal_axis = 1`, in the x-z plane from x towards z, like
-    /// [`TaylorDeformation::angle_deg`](super::TaylorDeformation::angle_deg). Meaningless when the
+    /// [`TaylorDeformation::angle_deg`](super::taylor::TaylorDeformation::angle_deg). Meaningless when the
     /// longest axis is not unique (`a = b`, e.g. a sphere).
     ///
     /// Errors: `normal_axis > 2`; a longest axis normal to the plane (its projection vanishes).
     ///
     /// ```
-    /// use eulermembrane::diagnostics::ellipsoid_fit;
+    /// use eulermembrane::diagnostics::ellipsoid::ellipsoid_fit;
     /// use eulermembrane::grid::Grid;
     /// use eulermembrane::interface::shapes::{Ellipsoid, Smoothing, smoothed_phi};
     /// // An ellipsoid with semi-axes 0.75, 0.5, 0.6 along x, y, z, 16 cells per unit length.

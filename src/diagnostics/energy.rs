@@ -21,7 +21,7 @@
 //! successive times and reports the total, as in Fig. 6.
 
 use super::reduce::{check_field, check_vector, finite_or, sum_cells};
-use crate::fluid::Coefficient;
+use crate::fluid::momentum::Coefficient;
 use crate::fluid::momentum::{ViscosityView, is_wall_face, viscous_at};
 use crate::grid::ops::{grad_v_at_cell, velocity_at_cell};
 use crate::grid::{Field, Grid, VectorField};
@@ -54,7 +54,7 @@ fn with_coefficient<'a, T: Real>(
 
 /// Kinetic energy `sum rho |v_c|^2 / 2 dV`, with `v_c` the staggered velocity averaged to cell
 /// centres ([`velocity_at_cell`], which reads the upper faces: ghosts filled) and `rho` uniform
-/// or per cell (e.g. [`Materials::rho`](crate::fluid::Materials)).
+/// or per cell (e.g. [`Materials::rho`](crate::fluid::momentum::Materials)).
 ///
 /// Errors: a field not on `grid`; a non-finite value.
 pub fn kinetic_energy<T: Real>(grid: &Grid<T>, v: &VectorField<T>, rho: &Coefficient<T>) -> Result<f64> {
@@ -213,7 +213,7 @@ pub struct EnergySample {
 /// Accumulates the energy budget of Sec. 3.2 from [`EnergyState`]s recorded at increasing times.
 ///
 /// ```
-/// use eulermembrane::diagnostics::{EnergyBudget, EnergyState};
+/// use eulermembrane::diagnostics::{energy::EnergyBudget, energy::EnergyState};
 /// // Kinetic energy decaying as exp(-2t): the dissipated energy makes up for it.
 /// let mut budget = EnergyBudget::new();
 /// for k in 0..=100 {

@@ -33,7 +33,7 @@ use crate::{Error, Real, Result};
 /// theorem ties the two cross terms: `tangential_normal = 6 normal_tangential`.
 ///
 /// ```
-/// use eulermembrane::diagnostics::StokesL2;
+/// use eulermembrane::diagnostics::mobility::StokesL2;
 /// let equal = StokesL2::EQUAL_VISCOSITIES;
 /// assert!((equal.tangential - 1.0 / 7.0).abs() < 1e-15);
 /// let red_cell = StokesL2::with_viscosity_ratio(5.0)?;
@@ -107,7 +107,7 @@ pub fn l2_tangential_mode(r: [f64; 3]) -> [f64; 3] {
 /// `delta > 0`.
 ///
 /// ```
-/// use eulermembrane::diagnostics::surface_velocity_projection;
+/// use eulermembrane::diagnostics::mobility::surface_velocity_projection;
 /// use eulermembrane::grid::{Field, Grid, VectorField};
 /// let g = Grid::<f64>::periodic([8; 3], [0.0; 3], [1.0; 3])?;
 /// let mut v = VectorField::from_fn(&g, |_| [2.0, 0.0, 0.0]);

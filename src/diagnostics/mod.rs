@@ -3,17 +3,17 @@
 //!
 //! | quantity | formula | module |
 //! |---|---|---|
-//! | volume | `V = sum phi_ijk dx dy dz` | [`volume`](fn@volume) |
-//! | centroid (3.5) | `x_c = sum phi x dx dy dz / sum phi dx dy dz` | [`centroid`] |
-//! | surface area | `s = sum delta_ijk dx dy dz` | [`area_from_delta`] |
-//! | area transport (3.6)-(3.7) | `s^{n+1} = s^n - dt sum delta n.grad v.n dx dy dz` | [`AreaTracker`] |
-//! | surface modes (3.2)-(3.4) | `R_{n,m} = sum delta w Y_{n,m}(theta, varphi) dx dy dz` | [`surface_modes`] |
-//! | Taylor deformation (Sec. 3.3.1) | `D = (L - B)/(L + B)` of an ellipse fitted to `phi = 1/2` | [`taylor_deformation`] |
-//! | ellipsoid of inertia | `D = (a - c)/(a + c)` of the ellipsoid with the volume and second moments of `phi` | [`ellipsoid_fit`] |
-//! | energy budget (Sec. 3.2) | `E_kin + E_el + int mu grad v : grad v dt - int v.F dt` | [`EnergyBudget`] |
-//! | membrane velocity on a mode | `c = sum delta v.m / sum delta m.m` | [`surface_velocity_projection`] |
-//! | velocity profiles (Fig. 17) | `<u>(y)` averaged over x (and z) | [`streamwise_profile`] |
-//! | normal part of `G_s` | largest and delta-weighted mean norm of `G_s n`, largest `tr G_s`, over the band | [`gs_tangency`] |
+//! | volume | `V = sum phi_ijk dx dy dz` | [`volume`](fn@volume::volume) |
+//! | centroid (3.5) | `x_c = sum phi x dx dy dz / sum phi dx dy dz` | [`centroid`](volume::centroid) |
+//! | surface area | `s = sum delta_ijk dx dy dz` | [`area_from_delta`](area::area_from_delta) |
+//! | area transport (3.6)-(3.7) | `s^{n+1} = s^n - dt sum delta n.grad v.n dx dy dz` | [`AreaTracker`](area::AreaTracker) |
+//! | surface modes (3.2)-(3.4) | `R_{n,m} = sum delta w Y_{n,m}(theta, varphi) dx dy dz` | [`surface_modes`](modes::surface_modes) |
+//! | Taylor deformation (Sec. 3.3.1) | `D = (L - B)/(L + B)` of an ellipse fitted to `phi = 1/2` | [`taylor_deformation`](taylor::taylor_deformation) |
+//! | ellipsoid of inertia | `D = (a - c)/(a + c)` of the ellipsoid with the volume and second moments of `phi` | [`ellipsoid_fit`](ellipsoid::ellipsoid_fit) |
+//! | energy budget (Sec. 3.2) | `E_kin + E_el + int mu grad v : grad v dt - int v.F dt` | [`EnergyBudget`](energy::EnergyBudget) |
+//! | membrane velocity on a mode | `c = sum delta v.m / sum delta m.m` | [`surface_velocity_projection`](mobility::surface_velocity_projection) |
+//! | velocity profiles (Fig. 17) | `<u>(y)` averaged over x (and z) | [`streamwise_profile`](profile::streamwise_profile) |
+//! | normal part of `G_s` | largest and delta-weighted mean norm of `G_s n`, largest `tr G_s`, over the band | [`gs_tangency`](tangency::gs_tangency) |
 //!
 //! Conventions shared by every function here:
 //! - fields are read at cell centres (`phi`, `delta`, normals, energy densities) or on the
@@ -48,23 +48,3 @@ pub mod suspension;
 pub mod tangency;
 pub mod taylor;
 pub mod volume;
-
-pub use area::{AreaTracker, area_from_delta, dilation_rate};
-pub use ellipsoid::{EllipsoidFit, ellipsoid_fit};
-pub use energy::{
-    DissipationForm, EnergyBudget, EnergySample, EnergyState, StepIntegrals, body_force_power,
-    elastic_energy, kinetic_energy, viscous_dissipation,
-};
-pub use mobility::{StokesL2, l2_normal_mode, l2_tangential_mode, surface_velocity_projection};
-pub use modes::{ModeWeight, SurfaceModes, mode_amplitudes, normalized_legendre, surface_modes};
-pub use profile::{ProfileAxes, Span, streamwise_profile};
-pub use suspension::{
-    CapsuleShape, CapsuleStresslet, CellFreeLayer, ParticleStress, ShearFrame, ShearRheology,
-    ViscosityContrast, WallLayer, WallShearStress, capsule_shapes, cell_free_layer, couette_shear_rate,
-    particle_stress, wall_shear_stress,
-};
-pub use tangency::{GsTangency, gs_tangency};
-pub use taylor::{
-    EllipseFit, TaylorDeformation, fit_ellipse, section_axes, section_contour, taylor_deformation,
-};
-pub use volume::{centroid, volume};

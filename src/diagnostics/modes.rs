@@ -1,6 +1,6 @@
 //! Spherical-harmonic modes of the membrane shape (Sec. 3.2, (3.2)-(3.4)).
 //!
-//! The radius seen from the centroid `x_c` ((3.5), [`centroid`](super::centroid)) is expanded as
+//! The radius seen from the centroid `x_c` ((3.5), [`centroid`](super::volume::centroid)) is expanded as
 //!
 //! ```text
 //! r(theta, varphi) = sum_n [ R_{n,0} Y_{n,0} + sum_{m=1..n} ( R^(c)_{n,m} Y^(c)_{n,m} + R^(s)_{n,m} Y^(s)_{n,m} ) ]   (3.2)
@@ -141,7 +141,7 @@ impl SurfaceModes {
 /// `-1 <= x <= 1`.
 ///
 /// ```
-/// use eulermembrane::diagnostics::normalized_legendre;
+/// use eulermembrane::diagnostics::modes::normalized_legendre;
 /// let x = 0.3_f64;
 /// let p20 = normalized_legendre(2, 0, x).unwrap();
 /// assert!((p20 - (2.5_f64).sqrt() * (3.0 * x * x - 1.0) / 2.0).abs() < 1e-15);
@@ -193,7 +193,7 @@ struct Acc {
 const N_MAX_LIMIT: usize = 64;
 
 /// Spherical-harmonic coefficients (3.3) of the surface described by `delta = |grad phi|`, about
-/// `centre` (normally the [`centroid`](super::centroid) (3.5)), for all `n <= n_max`, with the
+/// `centre` (normally the [`centroid`](super::volume::centroid) (3.5)), for all `n <= n_max`, with the
 /// weight `weight` (see the [module docs](self) for the normalisation).
 ///
 /// Cells where `delta` is zero, and a cell whose centre coincides with `centre`, add nothing.
@@ -201,7 +201,7 @@ const N_MAX_LIMIT: usize = 64;
 /// Errors: a field not on `grid`; `n_max > 64`; a non-finite `centre` or field value.
 ///
 /// ```
-/// use eulermembrane::diagnostics::{ModeWeight, centroid, surface_modes};
+/// use eulermembrane::diagnostics::{modes::ModeWeight, volume::centroid, modes::surface_modes};
 /// use eulermembrane::grid::{Field, Grid};
 /// // A sphere of radius 0.25 with a smooth delta of unit integral across the surface.
 /// let g = Grid::<f64>::periodic([32; 3], [-0.5; 3], [0.5; 3])?;

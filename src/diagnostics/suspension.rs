@@ -8,7 +8,7 @@
 //! The fluid obeys `rho Dv/Dt = div sigma + f` with `sigma = -p I + mu(x) (grad v + grad v^T)`,
 //! viscosity `mu` outside the capsules and `lambda mu` inside, and `f` the force density (per
 //! unit volume) that the membranes exert **on the fluid**: in this crate the face force an
-//! [`Effect`](crate::simulation::Effect) adds, e.g. `f = div(delta tau)` of the in-plane
+//! [`Effect`](crate::simulation::effect::Effect) adds, e.g. `f = div(delta tau)` of the in-plane
 //! elasticity ([`crate::membrane::force`]). For Stokes flow of force-free particles, Batchelor
 //! (1970) writes the bulk stress of a volume `V` as
 //!
@@ -143,7 +143,7 @@ use super::ellipsoid::{EllipsoidFit, ellipsoid_fit};
 use super::reduce::{check_field, check_vector, frames, reduce_cells};
 use super::taylor::{TaylorDeformation, section_axes, taylor_deformation};
 use super::volume::{centroid, volume};
-use crate::fluid::Coefficient;
+use crate::fluid::momentum::Coefficient;
 use crate::grid::ops::grad_v_at_cell;
 use crate::grid::{Field, Grid, VectorField};
 use crate::tensor::Mat3;
@@ -368,7 +368,7 @@ impl ParticleStress {
 /// };
 /// use eulermembrane::grid::{Boundary, Grid, VectorField};
 /// use eulermembrane::interface::shapes::Sphere;
-/// use eulermembrane::membrane::NeoHookean;
+/// use eulermembrane::membrane::law::NeoHookean;
 /// use eulermembrane::simulation::{Phase, Scene};
 ///
 /// // Walls at z = -1 and z = 1 sliding at -1 and +1 along x: shear rate 1.
@@ -720,7 +720,7 @@ pub struct WallShearStress {
 ///
 /// ```
 /// use eulermembrane::diagnostics::suspension::{ShearFrame, wall_shear_stress};
-/// use eulermembrane::fluid::Coefficient;
+/// use eulermembrane::fluid::momentum::Coefficient;
 /// use eulermembrane::grid::{Boundary, Grid, VectorField};
 /// // Walls at y = 0 and y = 2 sliding at 0 and 3 along x: shear rate 1.5.
 /// let mut bc = [[Boundary::Periodic; 2]; 3];
@@ -1000,7 +1000,8 @@ fn first_crossing(values: impl Iterator<Item = f64>) -> Option<f64> {
 mod tests {
     use super::*;
     use crate::fluid::{
-        FlowConfig, FlowStepper, Forcing, KrylovParams, Materials, PredictorSolver, ViscousScheme,
+        forcing::Forcing, krylov::KrylovParams, momentum::Materials, stepper::FlowConfig,
+        stepper::FlowStepper, stepper::PredictorSolver, stepper::ViscousScheme,
     };
     use crate::grid::Boundary;
     use crate::interface::shapes::{Circle, Smoothing, smoothed_phi};
@@ -1239,7 +1240,7 @@ mod tests {
     /// 1.9e-15 of `|S|`; the net force and torque vanish to round-off.
     #[test]
     fn the_stresslet_of_the_membrane_force_is_the_integral_of_delta_tau() {
-        use crate::membrane::{InPlaneElasticity, NeoHookean};
+        use crate::membrane::{force::InPlaneElasticity, law::NeoHookean};
         use crate::simulation::{Phase, Scene};
         let mut bc = [[Boundary::Periodic; 2]; 3];
         bc[2] = [Boundary::Wall { velocity: [-1.0, 0.0, 0.0] }, Boundary::Wall { velocity: [1.0, 0.0, 0.0] }];

@@ -192,7 +192,7 @@ pub fn section_contour<T: Real>(
 /// degenerate fit or a conic that is not an ellipse ([`Error::Unsupported`]).
 ///
 /// ```
-/// use eulermembrane::diagnostics::fit_ellipse;
+/// use eulermembrane::diagnostics::taylor::fit_ellipse;
 /// // Points on an ellipse with semi-axes 2 and 1, tilted by 30 degrees, centred at (0.1, 0).
 /// let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
 /// let pts: Vec<[f64; 2]> = (0..40)
@@ -300,7 +300,7 @@ fn qr_lstsq(a: &Mat<f64>, b: &Mat<f64>) -> Option<[f64; 5]> {
 /// Taylor deformation of the section of `phi` through `centre` normal to `normal_axis`:
 /// [`section_contour`] at `phi = 1/2`, then [`fit_ellipse`] (see the [module docs](self)).
 /// For the shear flow of Sec. 3.3 (walls normal to z, flow along x), use the
-/// [`centroid`](super::centroid) and `normal_axis = 1`; the angle is then the inclination to the
+/// [`centroid`](super::volume::centroid) and `normal_axis = 1`; the angle is then the inclination to the
 /// flow direction.
 ///
 /// Errors: those of [`section_contour`] and [`fit_ellipse`] (fewer than 6 contour points, a

@@ -70,8 +70,8 @@ impl KrylovParams {
     }
 }
 
-/// What a converged solve reports (also what a [`MomentumSolver`](super::MomentumSolver) or a
-/// [`PressureSolver`](super::PressureSolver) returns).
+/// What a converged solve reports (also what a [`MomentumSolver`](super::momentum::MomentumSolver) or a
+/// [`PressureSolver`](super::projection::PressureSolver) returns).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct KrylovInfo {
     /// Iterations performed (operator applications: 1 per CG and 2 per BiCGStab iteration;

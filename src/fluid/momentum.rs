@@ -15,7 +15,7 @@
 
 use super::krylov::{KrylovInfo, KrylovParams, KrylovWorkspace, bicgstab};
 use super::spectral::{Location, SpectralSolver};
-use super::{LinOp, Precond};
+use super::{krylov::LinOp, krylov::Precond};
 use crate::grid::GHOST;
 use crate::grid::ops::{min_rows, par_interior, par_interior_update};
 use crate::grid::{Field, Grid, VectorField};
@@ -477,7 +477,7 @@ pub trait ImplicitTerm<T: Real>: Sync {
 }
 
 /// The predictor operator `P = rho/dt - theta V` of (2.35) (`theta` = 1/2, Crank–Nicolson, in
-/// the paper; see [`ViscousScheme`](super::ViscousScheme)), matrix-free.
+/// the paper; see [`ViscousScheme`](super::stepper::ViscousScheme)), matrix-free.
 pub struct Predictor<'a, T: Real> {
     pub(crate) grid: &'a Grid<T>,
     pub(crate) inv_dt: T,
@@ -509,7 +509,7 @@ impl<'a, T: Real> Predictor<'a, T> {
     }
 
     /// The operator with the viscous weighting of `scheme` instead of Crank–Nicolson.
-    pub fn viscous(mut self, scheme: super::ViscousScheme) -> Self {
+    pub fn viscous(mut self, scheme: super::stepper::ViscousScheme) -> Self {
         self.theta = T::lit(scheme.implicit_weight());
         self
     }
@@ -711,17 +711,17 @@ pub struct MomentumSystem<'a, T: Real> {
     /// The smallest and the largest viscosity.
     pub mu_range: (T, T),
     /// The implicit weight `theta` of the viscous term in the operator (`1/2`: Crank–Nicolson;
-    /// see [`ViscousScheme`](super::ViscousScheme)).
+    /// see [`ViscousScheme`](super::stepper::ViscousScheme)).
     pub theta: T,
 }
 
 /// The strategy that solves the momentum predictor (2.35) `P v* = b`, once per step.
 ///
-/// [`FlowStepper::new`](super::FlowStepper::new) builds the default from
-/// [`FlowConfig::predictor`](super::FlowConfig::predictor) (a
-/// [`PredictorSolver`](super::PredictorSolver): [`KrylovMomentum`] or
+/// [`FlowStepper::new`](super::stepper::FlowStepper::new) builds the default from
+/// [`FlowConfig::predictor`](super::stepper::FlowConfig::predictor) (a
+/// [`PredictorSolver`](super::stepper::PredictorSolver): [`KrylovMomentum`] or
 /// [`SorMomentum`](super::sor::SorMomentum));
-/// [`FlowStepper::with_momentum_solver`](super::FlowStepper::with_momentum_solver) and
+/// [`FlowStepper::with_momentum_solver`](super::stepper::FlowStepper::with_momentum_solver) and
 /// [`Scene::momentum_solver`](crate::simulation::Scene::momentum_solver) take a user's. A solver
 /// owns its workspace, allocated when it is built: the step calls it through one dynamic
 /// dispatch and it must not allocate.
@@ -729,10 +729,10 @@ pub struct MomentumSystem<'a, T: Real> {
 /// A user solver that wraps the default one and counts its calls:
 ///
 /// ```
-/// use eulermembrane::fluid::{
-///     FlowConfig, FlowStepper, KrylovInfo, KrylovMomentum, Materials, MomentumSolver,
-///     MomentumSystem, BodyForce,
-/// };
+/// use eulermembrane::fluid::forcing::BodyForce;
+/// use eulermembrane::fluid::krylov::KrylovInfo;
+/// use eulermembrane::fluid::momentum::{KrylovMomentum, Materials, MomentumSolver, MomentumSystem};
+/// use eulermembrane::fluid::stepper::{FlowConfig, FlowStepper};
 /// use eulermembrane::grid::{Grid, VectorField};
 /// use std::sync::atomic::{AtomicUsize, Ordering};
 /// use std::sync::Arc;
@@ -789,7 +789,7 @@ pub trait MomentumSolver<T: Real>: Send + Sync {
 /// leaves the preconditioned spectrum within `[1 / ratio, 1]`.
 const TWO_VISCOSITY_RATIO: f64 = 1.5;
 
-/// The default [`MomentumSolver`] ([`PredictorSolver::Krylov`](super::PredictorSolver::Krylov)):
+/// The default [`MomentumSolver`] ([`PredictorSolver::Krylov`](super::stepper::PredictorSolver::Krylov)):
 /// right-preconditioned BiCGStab with the FFT solve of `(rho_min/dt) - (mu_max/2) Lap` per
 /// component ([`HelmholtzPrecond`]; with two viscosities more than 1.5 apart and
 /// `two_viscosities`, both inverses blended, [`HelmholtzPrecond::set_two`]).
@@ -803,7 +803,7 @@ pub struct KrylovMomentum<T: Real> {
 impl<T: Real> KrylovMomentum<T> {
     /// The solver and its workspace for `grid`, with the stopping rule `params` and, with
     /// `two_viscosities`, the blended preconditioner
-    /// ([`FlowConfig::two_viscosity_preconditioner`](super::FlowConfig::two_viscosity_preconditioner)).
+    /// ([`FlowConfig::two_viscosity_preconditioner`](super::stepper::FlowConfig::two_viscosity_preconditioner)).
     ///
     /// Errors: a tolerance outside `(0, 1)` or no iteration allowed (naming
     /// `FlowConfig::predictor`); a grid the FFT solves cannot handle.
@@ -963,7 +963,7 @@ mod tests {
     /// default of `new`) and `P_1 x`, and the two ends differ by `V x / 2`.
     #[test]
     fn viscous_scheme_sets_the_weight() {
-        use super::super::ViscousScheme;
+        use super::super::stepper::ViscousScheme;
         let g = Grid::<f64>::new([6, 5, 7], [0.0; 3], [1.0, 0.8, 1.1], Boundary::walls_on(Some(2))).unwrap();
         let mut x =
             VectorField::from_fn(&g, |p| [(3.0 * p[1]).sin() + p[2], p[0] * p[2], (2.0 * p[0]).cos()]);

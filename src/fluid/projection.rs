@@ -22,19 +22,20 @@ pub struct Projection<T: Real> {
 /// The strategy that solves the pressure equation (2.36) `-div(grad psi / rho) = b`, once per
 /// step.
 ///
-/// [`FlowStepper::new`](super::FlowStepper::new) builds the default, [`SpectralPcg`], from
-/// [`FlowConfig::poisson`](super::FlowConfig::poisson);
-/// [`FlowStepper::with_pressure_solver`](super::FlowStepper::with_pressure_solver) and
+/// [`FlowStepper::new`](super::stepper::FlowStepper::new) builds the default, [`SpectralPcg`], from
+/// [`FlowConfig::poisson`](super::stepper::FlowConfig::poisson);
+/// [`FlowStepper::with_pressure_solver`](super::stepper::FlowStepper::with_pressure_solver) and
 /// [`Scene::pressure_solver`](crate::simulation::Scene::pressure_solver) take a user's. A solver
 /// owns its workspace: the step calls it through one dynamic dispatch and it must not allocate.
 ///
 /// A user solver that wraps the default one and counts its calls:
 ///
 /// ```
-/// use eulermembrane::fluid::{
-///     BodyForce, Coefficient, FlowConfig, FlowStepper, KrylovInfo, Materials, PressureSolver,
-///     SpectralPcg,
-/// };
+/// use eulermembrane::fluid::forcing::BodyForce;
+/// use eulermembrane::fluid::krylov::KrylovInfo;
+/// use eulermembrane::fluid::momentum::{Coefficient, Materials};
+/// use eulermembrane::fluid::projection::{PressureSolver, SpectralPcg};
+/// use eulermembrane::fluid::stepper::{FlowConfig, FlowStepper};
 /// use eulermembrane::grid::{Field, Grid};
 ///
 /// struct Counted(SpectralPcg<f64>, usize);

@@ -42,7 +42,7 @@ impl SorParams {
     }
 }
 
-/// The paper's SOR as a [`MomentumSolver`] ([`PredictorSolver::Sor`](super::PredictorSolver::Sor)).
+/// The paper's SOR as a [`MomentumSolver`] ([`PredictorSolver::Sor`](super::stepper::PredictorSolver::Sor)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SorMomentum(SorParams);
 

@@ -55,11 +55,11 @@ pub struct FlowConfig {
     /// Solver of the momentum predictor.
     pub predictor: PredictorSolver,
     /// Stopping rule of the variable-density pressure PCG of the default
-    /// [`SpectralPcg`](super::SpectralPcg) (unused when the density is uniform).
+    /// [`SpectralPcg`](super::projection::SpectralPcg) (unused when the density is uniform).
     pub poisson: KrylovParams,
     /// With two viscosities more than 1.5 apart, whether the Krylov predictor's preconditioner
     /// inverts with both and blends them face by face
-    /// ([`HelmholtzPrecond::set_two`](super::HelmholtzPrecond::set_two); default
+    /// ([`HelmholtzPrecond::set_two`](super::momentum::HelmholtzPrecond::set_two); default
     /// `true`) instead of inverting with the larger one only. Measured (one core): BiCGStab
     /// iterations a step 9.8 -> 6.6 and step time -14 % for the two red cells at N = 64, 12.9 ->
     /// 7.8 and -28 % for a capsule of viscosity ratio 5 in shear at N = 32; where the membrane
@@ -153,7 +153,7 @@ pub struct StepInfo {
 /// the state, [`commit`](Self::commit) accepts it, [`discard`](Self::discard) forgets it.
 ///
 /// ```
-/// use eulermembrane::fluid::{BodyForce, FlowConfig, FlowStepper, Materials};
+/// use eulermembrane::fluid::{forcing::BodyForce, stepper::FlowConfig, stepper::FlowStepper, momentum::Materials};
 /// use eulermembrane::grid::{Boundary, Grid};
 ///
 /// let mut bc = [[Boundary::Periodic; 2]; 3];
@@ -254,7 +254,7 @@ impl<T: Real> FlowStepper<T> {
     }
 
     /// Replaces the solver of the pressure equation (2.36) (the default
-    /// [`SpectralPcg`](super::SpectralPcg)).
+    /// [`SpectralPcg`](super::projection::SpectralPcg)).
     pub fn with_pressure_solver(mut self, solver: Box<dyn PressureSolver<T>>) -> Self {
         self.ws.projection = Projection::with_solver(&self.grid, solver);
         self

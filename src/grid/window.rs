@@ -446,7 +446,7 @@ impl Window {
 
     /// [`roll`](Self::roll) of any per-cell storage of the box grid (`boxed.len()` values,
     /// ghosts included), e.g. a transport's time history
-    /// ([`InterfaceTransport::roll`](crate::interface::InterfaceTransport::roll)). Nothing for
+    /// ([`InterfaceTransport::roll`](crate::interface::advect::InterfaceTransport::roll)). Nothing for
     /// storage of another length.
     pub fn roll_slice<T: Real, V: Copy + Default>(
         boxed: &Grid<T>,

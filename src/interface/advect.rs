@@ -133,7 +133,7 @@ pub enum Carried {
 ///
 /// ```
 /// use eulermembrane::grid::{Field, Grid, VectorField};
-/// use eulermembrane::interface::{AdvectionInfo, AdvectionParams, Advector, InterfaceTransport};
+/// use eulermembrane::interface::{advect::AdvectionInfo, advect::AdvectionParams, advect::Advector, advect::InterfaceTransport};
 /// use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
 /// use eulermembrane::prelude::*;
 ///

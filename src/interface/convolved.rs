@@ -14,7 +14,7 @@
 //! (2.47). In cell units `|grad H| = beta' * 2 sigma(2y) (1 - sigma(2y))`, so
 //! `c beta' = kt / <2 sigma (1 - sigma)>_cell`, and the latter is exactly the derivative `F'(D)`
 //! of the volume constraint that [`solve_offset`](super::mthinc::solve_offset) returns as
-//! `mean_slope` (same quadrature, see [`CellQuadrature`](super::CellQuadrature)): no extra
+//! `mean_slope` (same quadrature, see [`CellQuadrature`](super::mthinc::CellQuadrature)): no extra
 //! transcendental evaluation is needed. The face value in the flux is the 2 x 2 Gauss average of
 //! `G` over the face of the upwind cell, computed together with `Hbar` from the same
 //! exponentials.

@@ -9,13 +9,13 @@
 //! n = grad phi / |grad phi|,  delta = |grad phi|,  kappa = -P . grad n . P   (2.24), (2.26), (2.9)
 //! ```
 //!
-//! - [`geometry`]: normals (several constructions, [`NormalScheme`]; the [`NormalEstimator`]
+//! - [`geometry`]: normals (several constructions, [`NormalScheme`](geometry::NormalScheme); the [`NormalEstimator`](geometry::NormalEstimator)
 //!   strategy), delta, projector,
 //!   curvature; per cell and per field. Its docs state the sign conventions of the crate.
 //! - [`mthinc`]: the reconstruction of one cell (2.42)-(2.43) and its face averages (2.48).
 //! - [`convolved`]: the convolved-curvature profile (2.45)-(2.47) and the stretching term.
-//! - [`advect`]: the [`Advector`], one AB2 step of both fields (2.29)-(2.30), the default
-//!   [`InterfaceTransport`].
+//! - [`advect`]: the [`Advector`](advect::Advector), one AB2 step of both fields (2.29)-(2.30), the default
+//!   [`InterfaceTransport`](advect::InterfaceTransport).
 //! - [`shapes`]: smoothed `phi` and `kappa_R tilde` of spheres, ellipsoids, circles, ellipses,
 //!   the biconcave red-cell shape and any signed-distance function.
 //!
@@ -23,7 +23,7 @@
 //!
 //! ```
 //! use eulermembrane::grid::{Grid, VectorField};
-//! use eulermembrane::interface::{AdvectionParams, Advector, Carried, shapes};
+//! use eulermembrane::interface::{advect::AdvectionParams, advect::Advector, advect::Carried, shapes};
 //! let g = Grid::<f64>::periodic([16, 16, 16], [0.0; 3], [1.0; 3]).unwrap();
 //! let sphere = shapes::Sphere::new([0.5; 3], 0.25).unwrap();
 //! let smooth = shapes::Smoothing::default();
@@ -43,7 +43,3 @@ pub mod geometry;
 pub mod mthinc;
 pub mod placement;
 pub mod shapes;
-
-pub use advect::{AdvectionInfo, AdvectionParams, Advector, Carried, InterfaceTransport};
-pub use geometry::{Curvature, Geometry, NormalEstimator, NormalScheme, PhiRange};
-pub use mthinc::{CellQuadrature, Reconstruction};

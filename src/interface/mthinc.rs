@@ -8,7 +8,7 @@
 //! phi_ijk  = (1 / |dV|) int_{dV_ijk} H_ijk dV                                 (2.43)
 //! ```
 //!
-//! with `n` the unit normal from `phi` (a [`NormalScheme`](super::NormalScheme)) and the offset
+//! with `n` the unit normal from `phi` (a [`NormalScheme`](super::geometry::NormalScheme)) and the offset
 //! `d` fixed by the volume constraint (2.43). In cell-local coordinates `xi` in
 //! `[-1/2, 1/2]^3` (`x = x_c + h * xi` per axis) the argument is `y = a . xi + D` with
 //! `a_k = beta' n_k h_k` and `D = beta' (n . x_c + d)`; `H = sigma(2 y)` with the logistic

@@ -720,7 +720,7 @@ impl Shape for PlacedShape {
 /// use eulermembrane::grid::Grid;
 /// use eulermembrane::interface::placement::{Domain, Placement, Prototype, Target};
 /// use eulermembrane::interface::shapes::Shape;
-/// use eulermembrane::membrane::NeoHookean;
+/// use eulermembrane::membrane::law::NeoHookean;
 /// use eulermembrane::simulation::{Phase, Scene};
 ///
 /// // 16 spheres filling 10 % of a periodic unit box, two cells apart.

@@ -81,7 +81,7 @@
 use super::band::Band;
 use super::force::{face_divergence3, scatter_add};
 use crate::error::positive;
-use crate::fluid::Forcing;
+use crate::fluid::forcing::Forcing;
 use crate::grid::ops::{cell_vector, grad_cell_vector_at};
 use crate::grid::{Field, Grid, VectorField};
 use crate::tensor::{Mat3, Vec3, matmul, projector, sym_to_mat};
@@ -347,7 +347,7 @@ impl<T: Real> BendingStress<T> {
     /// surface. See `tests/membrane_grid.rs`.
     ///
     /// `phi` needs its ghosts filled; `fourth`: the fourth-order `∇ψ` of
-    /// [`crate::interface::NormalScheme::Atanh4`] (else the second-order one of `Atanh2`). The
+    /// [`crate::interface::geometry::NormalScheme::Atanh4`] (else the second-order one of `Atanh2`). The
     /// force lives on the faces of `halo(4)`; the cost is a few passes over `halo(3)`.
     ///
     /// # Errors

@@ -71,7 +71,7 @@ fn dpsi<T: Real>(phi: T) -> T {
 }
 
 /// First-derivative weights along one axis, `(offset, weight)` (times `1/h`): the second- or
-/// fourth-order central difference of [`crate::interface::NormalScheme::Atanh2`] / `Atanh4`.
+/// fourth-order central difference of [`crate::interface::geometry::NormalScheme::Atanh2`] / `Atanh4`.
 fn stencil<T: Real>(fourth: bool) -> ([(isize, T); 4], usize) {
     if fourth {
         let (a, b) = (T::lit(8.0 / 12.0), T::lit(1.0 / 12.0));

@@ -47,7 +47,7 @@ use super::band::Band;
 use super::bending::{face_force_of_moment, shear_tension_at};
 use super::force::{face_divergence, scatter_add};
 use crate::error::positive;
-use crate::fluid::ImplicitTerm;
+use crate::fluid::momentum::ImplicitTerm;
 use crate::grid::ops::{cell_vector, velocity_at_cell};
 use crate::grid::{Field, Grid, VectorField};
 use crate::tensor::{Mat3, Vec3, dot, matmul, projector, sym_to_mat};

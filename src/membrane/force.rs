@@ -46,7 +46,7 @@
 //!    per band cell (the only call that evaluates the law);
 //! 3. pass [`InPlaneElasticity::forcing`] as (part of) the [`Forcing`] and
 //!    [`InPlaneElasticity::implicit`] as the [`ImplicitTerm`] of
-//!    [`FlowStepper::step`](crate::fluid::FlowStepper::step).
+//!    [`FlowStepper::step`](crate::fluid::stepper::FlowStepper::step).
 //!
 //! Neither the forcing nor the implicit term allocate after the first step at a given band size
 //! (their scratch grows with the band and keeps its capacity).
@@ -56,7 +56,7 @@ use super::law::SurfaceLaw;
 use super::outer_layers::OuterLayers;
 use super::stress::{Jacobian, h_tensor, jacobian_apply, stress_and_jacobian, stretching};
 use crate::error::positive;
-use crate::fluid::{Forcing, ImplicitTerm};
+use crate::fluid::{forcing::Forcing, momentum::ImplicitTerm};
 use crate::grid::ops::{cell_vector, grad_v_at_cell};
 use crate::grid::{Field, Grid, SymField, VectorField};
 use crate::tensor::{Mat3, Sym, sym_to_mat};

@@ -12,9 +12,9 @@
 //! its Jacobian `J = ∂τ/∂G_s` (2.33) used by the quasi-implicit predictor (2.32)–(2.35), and the
 //! term `H(∇v, G_s, J)` of (2.35), (B.6)–(B.7).
 //!
-//! - [`law`]: the [`SurfaceLaw`] trait (energy and its derivatives in `c1`, `c2`) and the
-//!   paper's laws [`NeoHookean`] (2.5) and [`Skalak`] (2.6);
-//! - [`wrinkling`]: [`TensionField`], the tension-field (relaxed) energy of any law: a membrane
+//! - [`law`]: the [`SurfaceLaw`](law::SurfaceLaw) trait (energy and its derivatives in `c1`, `c2`) and the
+//!   paper's laws [`NeoHookean`](law::NeoHookean) (2.5) and [`Skalak`](law::Skalak) (2.6);
+//! - [`wrinkling`]: [`TensionField`](wrinkling::TensionField), the tension-field (relaxed) energy of any law: a membrane
 //!   that wrinkles instead of carrying compression;
 //! - [`stress`](mod@stress): `B_s`, `c1`, `c2`, `τ`, `J'`, `H`, energy density and principal tensions —
 //!   pointwise, allocation free, generic over the law and over `f32`/`f64`;
@@ -23,8 +23,8 @@
 //! - [`band`]: the cells where `delta h >= epsilon`, where all membrane work happens, so that its
 //!   cost grows with the capsule surface rather than with the box;
 //! - [`force`]: the in-plane force `div(delta tau)` on the staggered faces, explicit
-//!   ([`Forcing`](crate::fluid::Forcing)) and quasi-implicit
-//!   ([`ImplicitTerm`](crate::fluid::ImplicitTerm)) parts of (2.35);
+//!   ([`Forcing`](crate::fluid::forcing::Forcing)) and quasi-implicit
+//!   ([`ImplicitTerm`](crate::fluid::momentum::ImplicitTerm)) parts of (2.35);
 //! - [`bending`]: the modified bending stress (2.16)-(2.17) and its force;
 //! - [`bending_implicit`]: the stiff part of the bending force linearised in the velocity, for
 //!   the predictor (semi-implicit bending);
@@ -48,21 +48,3 @@ pub mod outer_layers;
 pub mod strain;
 pub mod stress;
 pub mod wrinkling;
-
-pub use band::{Band, MAX_HALO};
-pub use bending::{BendingForcing, BendingForm, BendingStress, curvature_tensor_at, mean_curvature_at};
-pub use bending_implicit::{BendingImplicit, BendingImplicitTerm};
-pub use extension::SurfaceExtension;
-pub use force::{InPlaneElasticity, InPlaneForcing, InPlaneImplicit};
-pub use law::{NeoHookean, Skalak, SurfaceLaw, small_strain_moduli};
-pub use loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension};
-pub use outer_layers::OuterLayers;
-pub use strain::{
-    StrainAdvection, StrainTransport, advective_tendency, advective_tendency_in_frame, fill_projector,
-    reset_outside_band,
-};
-pub use stress::{
-    Jacobian, SurfaceKinematics, TensionInvariants, energy_density, h_tensor, jacobian, principal_tensions,
-    stress, stress_and_jacobian, stretching, surface_kinematics, tension_invariants,
-};
-pub use wrinkling::TensionField;

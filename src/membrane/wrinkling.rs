@@ -29,7 +29,7 @@ use crate::Real;
 /// The tension-field (relaxed) energy of the law `L` (see the [module docs](self)).
 ///
 /// ```
-/// use eulermembrane::membrane::{NeoHookean, SurfaceLaw, TensionField};
+/// use eulermembrane::membrane::{law::NeoHookean, law::SurfaceLaw, wrinkling::TensionField};
 ///
 /// let law = TensionField::new(NeoHookean::new(1.0)?);
 /// // Uniaxial stretch x1 = 1.44 at the natural width x2 = 1 / 1.2 of the neo-Hookean law:
@@ -195,7 +195,7 @@ impl<T: Real, L: SurfaceLaw<T>> SurfaceLaw<T> for TensionField<L> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::membrane::{NeoHookean, Skalak};
+    use crate::membrane::{law::NeoHookean, law::Skalak};
 
     fn cs(x1: f64, x2: f64) -> (f64, f64) {
         (x1 + x2 - 1.0, x1 * x2)

@@ -9,8 +9,10 @@ use super::view::{LevelChoice, MembraneView, Needs, reference_integral};
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::interface::geometry::{PhiRange, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
-use crate::interface::{Carried, InterfaceTransport, NormalEstimator};
-use crate::membrane::{Band, StrainTransport, SurfaceExtension, fill_projector};
+use crate::interface::{advect::Carried, advect::InterfaceTransport, geometry::NormalEstimator};
+use crate::membrane::{
+    band::Band, extension::SurfaceExtension, strain::StrainTransport, strain::fill_projector,
+};
 use crate::{Real, Result};
 
 /// What is derived from `phi` at one time level.

@@ -14,7 +14,7 @@
 //! surface (positive inside), so `psi = atanh(2 phi - 1)` ([`psi_of`]) gives it back:
 //! `s = psi h / beta` (`h` the [`characteristic_length`] of the grid, the cell spacing of a
 //! uniform grid), the construction of
-//! [`SurfaceExtension`](crate::membrane::SurfaceExtension). The distance outside capsule `c` is
+//! [`SurfaceExtension`](crate::membrane::extension::SurfaceExtension). The distance outside capsule `c` is
 //! `d_c = -s_c`, and for two capsules `a`, `b`
 //!
 //! ```text
@@ -24,7 +24,7 @@
 //! is, at every point of the film between them, the local gap between the two surfaces (exactly
 //! along the line joining their closest points, and larger elsewhere): its minimum is the gap.
 //! `s` is read only where both `phi` lie in `(tiny, 1 - tiny)`, `tiny` =
-//! `max(1e-6, 1000 eps)`, the default [`AdvectionParams::tiny`](crate::interface::AdvectionParams::tiny) (the cells that MTHINC reconstructs with a profile), so up to
+//! `max(1e-6, 1000 eps)`, the default [`AdvectionParams::tiny`](crate::interface::advect::AdvectionParams::tiny) (the cells that MTHINC reconstructs with a profile), so up to
 //! `psi_max h / beta` from each surface, `psi_max = atanh(1 - 2 tiny)`: 6.9 cells at `beta = 1`
 //! in `f64`, 4.5 in `f32`.
 //!
@@ -118,7 +118,7 @@ use crate::error::positive;
 use crate::grid::{Grid, SymField, VectorField};
 use crate::interface::advect::{characteristic_length, default_tiny};
 use crate::interface::geometry::psi_of;
-use crate::membrane::{Band, MAX_HALO};
+use crate::membrane::{band::Band, band::MAX_HALO};
 use crate::tensor::sym_index;
 use crate::{Error, Real, Result};
 use std::sync::{Mutex, PoisonError};
@@ -136,8 +136,8 @@ pub const MAX_RANGE_CELLS: f64 = 4.0;
 /// ```
 /// use eulermembrane::grid::Grid;
 /// use eulermembrane::interface::shapes::Sphere;
-/// use eulermembrane::membrane::NeoHookean;
-/// use eulermembrane::simulation::{Contact, Phase, Scene, min_gap_cells};
+/// use eulermembrane::membrane::law::NeoHookean;
+/// use eulermembrane::simulation::{contact::Contact, Phase, Scene, contact::min_gap_cells};
 ///
 /// // Two capsules 1.5 cells apart (h = 1/16), pushed apart by a pressure of 20 within 2 cells.
 /// let grid = Grid::<f64>::periodic([32, 16, 16], [0.0; 3], [2.0, 1.0, 1.0])?;

@@ -22,8 +22,8 @@
 //! ```
 //! use eulermembrane::grid::{Grid, VectorField};
 //! use eulermembrane::interface::shapes::Sphere;
-//! use eulermembrane::membrane::NeoHookean;
-//! use eulermembrane::simulation::{Effect, Phase, Scene, StepState};
+//! use eulermembrane::membrane::law::NeoHookean;
+//! use eulermembrane::simulation::{effect::Effect, Phase, Scene, effect::StepState};
 //! use eulermembrane::Result;
 //!
 //! struct Tether {
@@ -68,7 +68,7 @@ use super::capsule::Capsule;
 use super::settings::{Phase, Settings, Traction};
 use super::view::{LevelChoice, MembraneView, Needs};
 use crate::grid::{Grid, VectorField};
-use crate::membrane::SurfaceLaw;
+use crate::membrane::law::SurfaceLaw;
 use crate::{Error, Real, Result};
 
 /// How the energy budget ([`Simulation::energy`](super::Simulation::energy)) counts an effect.
@@ -206,7 +206,7 @@ impl<'a, T: Real> StepState<'a, T> {
 /// ([`add_force`](Self::add_force)) and optionally quasi-implicit
 /// ([`add_implicit`](Self::add_implicit)), with the state it needs. The paper's membrane
 /// ([`Elasticity`](super::Elasticity), [`Bending`](super::Bending)), the loads
-/// ([`SurfaceLoad`](super::SurfaceLoad), [`BodyForce`](crate::fluid::BodyForce)) and a user's
+/// ([`SurfaceLoad`](super::SurfaceLoad), [`BodyForce`](crate::fluid::forcing::BodyForce)) and a user's
 /// effects are all effects; see the [module docs](self) for the order of calls and an example.
 ///
 /// Every method but [`name`](Self::name) and [`add_force`](Self::add_force) has a default: an
@@ -267,7 +267,7 @@ pub trait Effect<T: Real>: Send + Sync {
     /// [`StepReport`](super::StepReport) carries
     /// [`StepWarning::DtAboveLimit`](super::StepWarning::DtAboveLimit).
     ///
-    /// [`AdaptiveDt`]: super::AdaptiveDt
+    /// [`AdaptiveDt`]: super::timestep::AdaptiveDt
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
         let _ = setup;
         None
@@ -312,7 +312,7 @@ pub trait Effect<T: Real>: Send + Sync {
 
     /// Adds the quasi-implicit term's contribution to `y = P x` of the predictor (2.35) on
     /// interior faces (ghosts of `x` filled), like
-    /// [`ImplicitTerm::add_apply`](crate::fluid::ImplicitTerm::add_apply).
+    /// [`ImplicitTerm::add_apply`](crate::fluid::momentum::ImplicitTerm::add_apply).
     ///
     /// # Errors
     /// As [`add_force`](Self::add_force).
@@ -327,7 +327,7 @@ pub trait Effect<T: Real>: Send + Sync {
     }
 
     /// The quasi-implicit term's contribution to `(P x)_c` at face `idx` (for the SOR
-    /// reference solver), like [`ImplicitTerm::apply_at`](crate::fluid::ImplicitTerm::apply_at).
+    /// reference solver), like [`ImplicitTerm::apply_at`](crate::fluid::momentum::ImplicitTerm::apply_at).
     fn implicit_at(&self, state: &StepState<'_, T>, x: &VectorField<T>, c: usize, idx: usize) -> T {
         let _ = (state, x, c, idx);
         T::zero()

@@ -8,14 +8,14 @@ use super::settings::{BendingCoupling, MembraneCoupling, Traction};
 use super::stability::{bending_dt_limit, membrane_dt_limit};
 use super::view::{MembraneView, Needs, reference_integral};
 use crate::error::positive;
-use crate::fluid::{BodyForce, Forcing, ImplicitTerm, PredictorSolver};
+use crate::fluid::{forcing::BodyForce, forcing::Forcing, momentum::ImplicitTerm, stepper::PredictorSolver};
 use crate::grid::{Grid, VectorField};
-use crate::interface::NormalScheme;
+use crate::interface::geometry::NormalScheme;
 use crate::membrane::law::check_stress_free;
 use crate::membrane::stress::SurfaceKinematics;
 use crate::membrane::{
-    BendingForm, BendingImplicit, BendingStress, InPlaneElasticity, SurfaceExtension, SurfaceLaw,
-    small_strain_moduli,
+    bending::BendingForm, bending::BendingStress, bending_implicit::BendingImplicit,
+    extension::SurfaceExtension, force::InPlaneElasticity, law::SurfaceLaw, law::small_strain_moduli,
 };
 use crate::{Error, Real, Result};
 use std::sync::Arc;
@@ -142,7 +142,7 @@ impl<W> PerCapsule<W> {
 /// surface by its [`traction`](Self::traction). Needs `G_s`.
 ///
 /// ```
-/// use eulermembrane::membrane::{NeoHookean, Skalak};
+/// use eulermembrane::membrane::{law::NeoHookean, law::Skalak};
 /// use eulermembrane::simulation::{Elasticity, MembraneCoupling, Traction};
 ///
 /// // A stiff capsule 0 and a soft capsule 1 in one scene.
@@ -345,7 +345,7 @@ impl<T: Real> Effect<T> for Elasticity<T> {
 /// [`coupling`](Self::coupling). Needs `kappa_R tilde`.
 ///
 /// ```
-/// use eulermembrane::membrane::BendingForm;
+/// use eulermembrane::membrane::bending::BendingForm;
 /// use eulermembrane::simulation::{Bending, BendingCoupling};
 ///
 /// // The paper's bending: the divergence form, explicit.

@@ -37,7 +37,7 @@
 //! ```
 //! use eulermembrane::grid::{Boundary, Grid};
 //! use eulermembrane::interface::shapes::Sphere;
-//! use eulermembrane::membrane::NeoHookean;
+//! use eulermembrane::membrane::law::NeoHookean;
 //! use eulermembrane::simulation::{Phase, Scene};
 //!
 //! // Walls at z = -1 and z = 1 moving at -1 and +1 along x; periodic in x and y.
@@ -62,7 +62,7 @@
 mod capsule;
 pub mod contact;
 pub mod effect;
-pub mod effects;
+mod effects;
 pub mod observer;
 mod output;
 mod scene;
@@ -71,49 +71,46 @@ pub mod stability;
 pub mod timestep;
 mod view;
 
-pub use contact::{Contact, MAX_RANGE_CELLS, min_gap_cells};
-pub use effect::{Capsules, Effect, EnergyRole, Setup, StepState};
 pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
-pub use observer::{Observer, RunSummary};
 pub use scene::Scene;
 pub use settings::{
     BOX_MIN_ROOM, BendingCoupling, CapsuleStorage, GsTransport, MembraneCoupling, Phase, ReferenceArea,
     Settings, Traction, TransportMaker, box_margin,
 };
-pub use timestep::{AdaptiveDt, FixedDt, TimeStepping};
 pub use view::{MembraneView, Needs};
 
 use crate::diagnostics::{
-    DissipationForm, EnergyState, StepIntegrals, body_force_power, kinetic_energy, viscous_dissipation,
+    energy::DissipationForm, energy::EnergyState, energy::StepIntegrals, energy::body_force_power,
+    energy::kinetic_energy, energy::viscous_dissipation,
 };
 use crate::error::positive;
-use crate::fluid::{Coefficient, Materials};
+use crate::fluid::stepper::FlowStepper;
+use crate::fluid::{momentum::Coefficient, momentum::Materials};
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
-use crate::interface::NormalEstimator;
-use crate::membrane::{Band, SurfaceExtension};
+use crate::interface::geometry::NormalEstimator;
+use crate::membrane::{band::Band, extension::SurfaceExtension};
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
 use capsule::Capsule;
+use effect::{Effect, EnergyRole, Setup, StepState};
 use effects::{EffectForcing, EffectImplicit};
 use scene::Strategies;
 use view::LevelChoice;
-
-pub use crate::fluid::FlowStepper;
 
 /// What one step of a [`Simulation`] reports.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct StepReport {
     /// The flow step: step number and time after the step, `dt`, predictor and pressure solver
     /// iterations, CFL and viscous numbers.
-    pub flow: crate::fluid::StepInfo,
+    pub flow: crate::fluid::stepper::StepInfo,
     /// Cells with a reconstructed profile in the interface advection (all capsules).
     pub profile_cells: usize,
     /// Cells of the membrane bands after the step (all capsules).
     pub band_cells: usize,
     /// What the caller should know about this step (the library never prints).
     pub warning: Option<StepWarning>,
-    /// Attempts at this step that an [`AdaptiveDt`] rejected and retried smaller (0 for a
+    /// Attempts at this step that an [`AdaptiveDt`](timestep::AdaptiveDt) rejected and retried smaller (0 for a
     /// step taken as asked).
     pub retries: usize,
 }
@@ -121,17 +118,17 @@ pub struct StepReport {
 /// A warning carried by a [`StepReport`]: the step was taken, but its result may not be
 /// trustworthy. A report carries one warning, the first that applies of
 /// [`CourantAboveOne`](Self::CourantAboveOne), [`DtAboveLimit`](Self::DtAboveLimit) and (from
-/// an [`AdaptiveDt`] run) [`VelocityGrowth`](Self::VelocityGrowth).
+/// an [`AdaptiveDt`](timestep::AdaptiveDt) run) [`VelocityGrowth`](Self::VelocityGrowth).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
 pub enum StepWarning {
-    /// The advective Courant number of the step ([`StepInfo::cfl`](crate::fluid::StepInfo::cfl),
+    /// The advective Courant number of the step ([`StepInfo::cfl`](crate::fluid::stepper::StepInfo::cfl),
     /// `max |v_d| dt / h_d` of the new velocity) exceeds 1: the flow moves more than a cell in
     /// one step, past the stability bound of the interface advection
     /// ([`interface::advect`](crate::interface::advect)), and the run may fail within a few
     /// steps (typically in the predictor's solver). The
-    /// validated cases run at a Courant number of 0.3 ([`AdaptiveDt::DEFAULT_CFL`]) and fail
-    /// near 0.35–0.5 ([`stability`]); take a smaller `dt`, or let [`AdaptiveDt`] choose it.
+    /// validated cases run at a Courant number of 0.3 ([`AdaptiveDt::DEFAULT_CFL`](timestep::AdaptiveDt::DEFAULT_CFL)) and fail
+    /// near 0.35–0.5 ([`stability`]); take a smaller `dt`, or let [`AdaptiveDt`](timestep::AdaptiveDt) choose it.
     CourantAboveOne {
         /// The step's Courant number.
         cfl: f64,
@@ -147,7 +144,7 @@ pub enum StepWarning {
         limit: f64,
     },
     /// The largest velocity `max|v|` grew by `factor` within the last `steps` steps of an
-    /// [`AdaptiveDt`] run: a flow that speeds up, or the start of an instability. The step
+    /// [`AdaptiveDt`](timestep::AdaptiveDt) run: a flow that speeds up, or the start of an instability. The step
     /// follows it (its Courant target shrinks `dt`); look at the run if no physics explains it.
     VelocityGrowth {
         /// `max|v|` of this step over the smallest of the recent steps.
@@ -413,7 +410,7 @@ impl<T: Real> Simulation<T> {
         update_materials(grid, self.inside, self.outside, &self.capsules, &mut self.flow, mix, true);
         let forcing = EffectForcing { effects: &self.effects, state: &state };
         let implicit = EffectImplicit { effects: &self.effects, state: &state };
-        let extra = implicit.any().then_some(&implicit as &dyn crate::fluid::ImplicitTerm<T>);
+        let extra = implicit.any().then_some(&implicit as &dyn crate::fluid::momentum::ImplicitTerm<T>);
         let flow_info = self.flow.prepare(dt, &forcing, extra)?;
         // 6: G_s^{n+1}, beside the state.
         for cap in self.capsules.iter_mut() {
@@ -534,7 +531,7 @@ impl<T: Real> Simulation<T> {
     /// Costs one pass over the box per step and one velocity field; a second call restarts the
     /// integrals at zero. Checkpoints do not hold the ledger.
     ///
-    /// [`EnergyBudget`]: crate::diagnostics::EnergyBudget
+    /// [`EnergyBudget`]: crate::diagnostics::energy::EnergyBudget
     pub fn track_energy(&mut self) {
         let half = match self.ledger.take() {
             Some((_, h)) => h,
@@ -692,7 +689,7 @@ impl<T: Real> Simulation<T> {
                 "a scene with Scene::elasticity",
             ));
         };
-        crate::membrane::fill_projector(grid, &cap.cur.normal, gs);
+        crate::membrane::strain::fill_projector(grid, &cap.cur.normal, gs);
         let l2 = lambda * lambda;
         for f in gs.c.iter_mut() {
             f.data.iter_mut().for_each(|x| *x *= l2);
@@ -707,17 +704,17 @@ impl<T: Real> Simulation<T> {
 
     /// Volume `sum phi h^3` of capsule `c`.
     pub fn volume(&self, c: usize) -> Result<f64> {
-        crate::diagnostics::volume(self.capsule_grid(c)?, self.phi(c)?)
+        crate::diagnostics::volume::volume(self.capsule_grid(c)?, self.phi(c)?)
     }
     /// Centroid (3.5) of capsule `c` (in the positions of its box: past the upper side of a
     /// periodic axis for a box that straddles it).
     pub fn centroid(&self, c: usize) -> Result<[f64; 3]> {
-        crate::diagnostics::centroid(self.capsule_grid(c)?, self.phi(c)?)
+        crate::diagnostics::volume::centroid(self.capsule_grid(c)?, self.phi(c)?)
     }
     /// Surface area `sum delta h^3` of capsule `c` (for the transported area (3.7), see
-    /// [`AreaTracker`](crate::diagnostics::AreaTracker)).
+    /// [`AreaTracker`](crate::diagnostics::area::AreaTracker)).
     pub fn area(&self, c: usize) -> Result<f64> {
-        crate::diagnostics::area_from_delta(self.capsule_grid(c)?, self.delta(c)?)
+        crate::diagnostics::area::area_from_delta(self.capsule_grid(c)?, self.delta(c)?)
     }
 
     /// Reference (unstressed) area `sum delta / j_s h^3` of the membrane of capsule `c`, with
@@ -750,7 +747,7 @@ impl<T: Real> Simulation<T> {
     /// Adds the force density of the membranes (the [`EnergyRole::Stored`] effects:
     /// elasticity, bending, contact) at the current state to `out`, on the faces of the
     /// staggered grid as the flow step receives it: the force whose first moment is the
-    /// suspension's particle stress ([`particle_stress`](crate::diagnostics::particle_stress)).
+    /// suspension's particle stress ([`particle_stress`](crate::diagnostics::suspension::particle_stress)).
     /// The effects are evaluated at the current level (as a step would with `dt`), and their
     /// quasi-implicit operators applied to the current velocity are added to their explicit
     /// forces: the `dt` terms of (2.35) cancel and what is added is the force itself (e.g.
@@ -829,7 +826,7 @@ impl<T: Real> Simulation<T> {
     /// The terms of the energy budget of Sec. 3.2 at the current time: kinetic and elastic
     /// energy, viscous dissipation rate, the power of the external forces ([`EnergyRole::Work`]
     /// effects) and, after [`track_energy`](Self::track_energy), their step integrals (feed them
-    /// to an [`EnergyBudget`](crate::diagnostics::EnergyBudget)).
+    /// to an [`EnergyBudget`](crate::diagnostics::energy::EnergyBudget)).
     pub fn energy(&mut self) -> Result<EnergyState> {
         let g = &self.grid;
         let m = self.flow.materials();
@@ -950,13 +947,13 @@ fn check_extent<T: Real>(grid: &Grid<T>, phi: &Field<T>, exact: Option<f64>, c: 
     let (volume, smallest) = if grid.is_2d() {
         let area = match exact {
             Some(a) => a,
-            None => crate::diagnostics::volume(grid, phi)? / grid.h()[2].f64(),
+            None => crate::diagnostics::volume::volume(grid, phi)? / grid.h()[2].f64(),
         };
         (area, std::f64::consts::PI * h * h)
     } else {
         let v = match exact {
             Some(v) => v,
-            None => crate::diagnostics::volume(grid, phi)?,
+            None => crate::diagnostics::volume::volume(grid, phi)?,
         };
         (v, 4.0 / 3.0 * std::f64::consts::PI * h.powi(3))
     };

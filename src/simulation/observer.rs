@@ -7,7 +7,7 @@
 //! ```
 //! use eulermembrane::grid::Grid;
 //! use eulermembrane::interface::shapes::Sphere;
-//! use eulermembrane::membrane::NeoHookean;
+//! use eulermembrane::membrane::law::NeoHookean;
 //! use eulermembrane::simulation::observer::{Observer, Progress};
 //! use eulermembrane::simulation::{Phase, Scene, Simulation, StepReport};
 //!
@@ -34,7 +34,7 @@
 //! # Ok::<(), eulermembrane::Error>(())
 //! ```
 
-use super::{FixedDt, Simulation, StepReport, TimeStepping};
+use super::{Simulation, StepReport, timestep::FixedDt, timestep::TimeStepping};
 use crate::error::positive;
 use crate::io::vtk::PvdSeries;
 use crate::{Error, Real, Result};
@@ -95,7 +95,7 @@ impl<T: Real> Simulation<T> {
         self.run_with(until, &mut FixedDt::new(dt)?, observers)
     }
 
-    /// Steps chosen by `stepping` (e.g. an [`AdaptiveDt`](super::AdaptiveDt)) until `until`,
+    /// Steps chosen by `stepping` (e.g. an [`AdaptiveDt`](super::timestep::AdaptiveDt)) until `until`,
     /// handing each step to the `observers` in order.
     ///
     /// # Errors

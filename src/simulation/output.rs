@@ -154,7 +154,7 @@ impl<T: Real> Simulation<T> {
     /// Restores a state written by [`checkpoint`](Self::checkpoint) into a simulation built
     /// from the same scene. The state is replaced only if everything could be read, except the
     /// interface transports' histories
-    /// ([`InterfaceTransport::restore`](crate::interface::InterfaceTransport::restore)), read
+    /// ([`InterfaceTransport::restore`](crate::interface::advect::InterfaceTransport::restore)), read
     /// last: a transport that refuses its entries leaves the fields restored and the error
     /// returned.
     ///

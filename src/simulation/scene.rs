@@ -7,11 +7,14 @@ use super::effect::{Effect, Setup};
 use super::effects::{Bending, Elasticity, SurfaceLoad};
 use super::settings::{CapsuleStorage, Phase, Settings, Traction, TransportMaker, box_margin};
 use super::stability::effects_dt_limit;
-use crate::fluid::{BodyForce, MomentumSolver, PressureSolver};
+use crate::fluid::{forcing::BodyForce, momentum::MomentumSolver, projection::PressureSolver};
 use crate::grid::{Grid, Window};
 use crate::interface::shapes::Shape;
-use crate::interface::{Advector, Carried, Geometry, InterfaceTransport, NormalEstimator};
-use crate::membrane::SurfaceLaw;
+use crate::interface::{
+    advect::Advector, advect::Carried, advect::InterfaceTransport, geometry::Geometry,
+    geometry::NormalEstimator,
+};
+use crate::membrane::law::SurfaceLaw;
 use crate::{Error, Real, Result};
 
 /// A scene: the box, the fluids, the capsules and the effects to simulate. Build it with the
@@ -25,7 +28,7 @@ use crate::{Error, Real, Result};
 /// ```
 /// use eulermembrane::grid::Grid;
 /// use eulermembrane::interface::shapes::Sphere;
-/// use eulermembrane::membrane::NeoHookean;
+/// use eulermembrane::membrane::law::NeoHookean;
 /// use eulermembrane::simulation::{Phase, Scene};
 ///
 /// let grid = Grid::<f64>::periodic([16; 3], [0.0; 3], [1.0; 3])?;
@@ -116,7 +119,7 @@ impl<T: Real> Scene<T> {
     }
 
     /// In-plane elasticity of every membrane with the law `law` (e.g.
-    /// [`NeoHookean`](crate::membrane::NeoHookean), [`Skalak`](crate::membrane::Skalak), or
+    /// [`NeoHookean`](crate::membrane::law::NeoHookean), [`Skalak`](crate::membrane::law::Skalak), or
     /// any user [`SurfaceLaw`]): [`effect`](Self::effect) with [`Elasticity::new`], the default
     /// traction and coupling. For others add the effect with them
     /// (`.effect(Elasticity::new(law).traction(Traction::Sharp))`); for a law per capsule, one
@@ -172,7 +175,7 @@ impl<T: Real> Scene<T> {
 
     /// Estimates the capsules' normals with `estimator` instead of [`Settings::normals`] (see
     /// [`NormalEstimator`]; one estimator serves every capsule, in turn).
-    /// [`BendingForm::EnergyGradient`](crate::membrane::BendingForm::EnergyGradient) still
+    /// [`BendingForm::EnergyGradient`](crate::membrane::bending::BendingForm::EnergyGradient) still
     /// differences `psi` with the stencil of [`Settings::normals`].
     pub fn normal_estimator(mut self, estimator: impl NormalEstimator<T> + 'static) -> Self {
         self.strategies.normals = Some(Box::new(estimator));
@@ -191,14 +194,14 @@ impl<T: Real> Scene<T> {
     }
 
     /// Solves the momentum predictor (2.35) with `solver` instead of the one
-    /// [`FlowConfig::predictor`](crate::fluid::FlowConfig::predictor) names (see [`MomentumSolver`]).
+    /// [`FlowConfig::predictor`](crate::fluid::stepper::FlowConfig::predictor) names (see [`MomentumSolver`]).
     pub fn momentum_solver(mut self, solver: impl MomentumSolver<T> + 'static) -> Self {
         self.strategies.momentum = Some(Box::new(solver));
         self
     }
 
     /// Solves the pressure equation (2.36) with `solver` instead of the default
-    /// [`SpectralPcg`](crate::fluid::SpectralPcg) (see [`PressureSolver`]).
+    /// [`SpectralPcg`](crate::fluid::projection::SpectralPcg) (see [`PressureSolver`]).
     pub fn pressure_solver(mut self, solver: impl PressureSolver<T> + 'static) -> Self {
         self.strategies.pressure = Some(Box::new(solver));
         self
@@ -224,8 +227,8 @@ impl<T: Real> Scene<T> {
     ///   finite derivatives there; `traction`: an elasticity with [`Traction::Sharp`] and the
     ///   quasi-implicit coupling under the SOR predictor; `normals` other than
     ///   `atanh2`/`atanh4` with a bending of
-    ///   [`BendingForm::EnergyGradient`](crate::membrane::BendingForm::EnergyGradient); a
-    ///   [`Contact`](super::Contact)'s `range_cells` beyond what the profiles resolve; a user
+    ///   [`BendingForm::EnergyGradient`](crate::membrane::bending::BendingForm::EnergyGradient); a
+    ///   [`Contact`](super::contact::Contact)'s `range_cells` beyond what the profiles resolve; a user
     ///   effect's own errors;
     /// - `elasticity` or `bending`: two such effects acting on one capsule (their forces would
     ///   add up), naming the capsule;
@@ -240,7 +243,7 @@ impl<T: Real> Scene<T> {
     ///   `Smoothing::points`, `AdvectionParams::beta` (in `(0, 10]`), `AdvectionParams::tiny`;
     ///
     /// and the errors of the solvers and strategies as they are made:
-    /// [`FlowStepper::new`](crate::fluid::FlowStepper::new)'s (invalid [`FlowConfig`](crate::fluid::FlowConfig)
+    /// [`FlowStepper::new`](crate::fluid::stepper::FlowStepper::new)'s (invalid [`FlowConfig`](crate::fluid::stepper::FlowConfig)
     /// settings, more than one wall axis), a user's
     /// [`interface_transport`](Self::interface_transport) maker's or
     /// [`normal_estimator`](Self::normal_estimator)'s, and [`Error::Unsupported`] from an

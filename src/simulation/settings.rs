@@ -4,11 +4,13 @@
 //! [`ReferenceArea`]).
 
 use crate::error::positive;
-use crate::fluid::{FlowConfig, ViscousScheme};
+use crate::fluid::{stepper::FlowConfig, stepper::ViscousScheme};
 use crate::grid::Grid;
 use crate::interface::shapes::Smoothing;
-use crate::interface::{AdvectionParams, Carried, InterfaceTransport, NormalScheme};
-use crate::membrane::StrainAdvection;
+use crate::interface::{
+    advect::AdvectionParams, advect::Carried, advect::InterfaceTransport, geometry::NormalScheme,
+};
+use crate::membrane::strain::StrainAdvection;
 use crate::{Error, Real, Result};
 
 /// Density `rho` and dynamic viscosity `mu` of one fluid phase.
@@ -44,7 +46,7 @@ impl<T: Real> Phase<T> {
 /// viscous scheme `Theta(0.6)`, the band `epsilon = 0.01`, the quasi-implicit membrane
 /// coupling, the semi-implicit bending. For many capsules in a large box,
 /// [`storage`](Self::storage) `= CapsuleStorage::Boxed { room: 1.2 }` saves memory. The step
-/// is not a setting: [`AdaptiveDt::new`](super::AdaptiveDt::new)`(0.05)` (Courant target 0.3)
+/// is not a setting: [`AdaptiveDt::new`](super::timestep::AdaptiveDt::new)`(0.05)` (Courant target 0.3)
 /// chooses it; a fixed `dt` should keep the Courant number `max|v| dt / h` near 0.3 and below
 /// [`Simulation::membrane_dt_limit`](super::Simulation::membrane_dt_limit).
 ///
@@ -63,10 +65,10 @@ pub struct Settings<T> {
     /// (`docs/stability.md`); [`ViscousScheme::CrankNicolson`] reproduces the paper.
     pub flow: FlowConfig,
     /// Interface advection (MTHINC sharpness `beta`, normals of the reconstruction) of the
-    /// default [`InterfaceTransport`], the [`Advector`](crate::interface::Advector).
+    /// default [`InterfaceTransport`], the [`Advector`](crate::interface::advect::Advector).
     pub advection: AdvectionParams<T>,
     /// Normals of the membrane mechanics (the `n` of `P = I - n n` in the stress, the re-set of
-    /// `G_s` and the bending curvature): the default [`NormalEstimator`](crate::interface::NormalEstimator), a [`Geometry`](crate::interface::Geometry) with
+    /// `G_s` and the bending curvature): the default [`NormalEstimator`](crate::interface::geometry::NormalEstimator), a [`Geometry`](crate::interface::geometry::Geometry) with
     /// this scheme. Default [`NormalScheme::Atanh4`].
     pub normals: NormalScheme,
     /// The `epsilon` of the membrane band `delta h >= epsilon` (Sec. 2.2.2): outside it `G_s` is
@@ -95,7 +97,7 @@ pub struct Settings<T> {
 /// ```
 /// use eulermembrane::grid::Grid;
 /// use eulermembrane::interface::shapes::Sphere;
-/// use eulermembrane::membrane::NeoHookean;
+/// use eulermembrane::membrane::law::NeoHookean;
 /// use eulermembrane::simulation::{CapsuleStorage, Phase, Scene, Settings};
 ///
 /// let grid = Grid::<f64>::periodic([48, 16, 16], [0.0; 3], [3.0, 1.0, 1.0])?;
@@ -157,7 +159,7 @@ pub const BOX_MIN_ROOM: usize = 4;
 /// ```
 /// use eulermembrane::grid::Grid;
 /// use eulermembrane::interface::shapes::Sphere;
-/// use eulermembrane::membrane::NeoHookean;
+/// use eulermembrane::membrane::law::NeoHookean;
 /// use eulermembrane::simulation::{Elasticity, Phase, Scene, Traction};
 ///
 /// let grid = Grid::<f64>::periodic([16; 3], [0.0; 3], [1.0; 3])?;
@@ -180,7 +182,7 @@ pub enum Traction {
     /// Each layer of the shell slides with the tangential velocity of its closest point on the
     /// surface `phi = 1/2` (its normal velocity stays the local one), and the in-plane force
     /// acts there, spread by the transposed interpolation
-    /// ([`SurfaceExtension`](crate::membrane::SurfaceExtension)); a
+    /// ([`SurfaceExtension`](crate::membrane::extension::SurfaceExtension)); a
     /// [`surface force`](super::Scene::surface_force) on the capsule acts there too. `G_s` is
     /// projected onto the tangent plane after each step, as by [`GsTransport::Tangential`],
     /// whatever [`Settings::gs_transport`] says: without it the normal part of `G_s` grows and
@@ -190,7 +192,7 @@ pub enum Traction {
     /// [`Sharp`](Self::Sharp), and the layers deeper than
     /// [`RESAMPLE_DEPTH`](crate::membrane::outer_layers::RESAMPLE_DEPTH) cells take the `G_s` of
     /// their closest surface point after each step, and move their stress onto the layers
-    /// they take it from ([`OuterLayers`](crate::membrane::OuterLayers)): the whole shell
+    /// they take it from ([`OuterLayers`](crate::membrane::outer_layers::OuterLayers)): the whole shell
     /// carries the surface's deformation as it carries its velocity, and the force is the
     /// work-conjugate of the whole shell's energy. In shear it removes the energy that the
     /// crushed inner layers at the tips create; the squashed sphere's energy error at N = 64
@@ -237,7 +239,7 @@ pub enum BendingCoupling {
     /// `dt <= C_BENDING mu h^3 / E_b` ([`crate::simulation::stability`]).
     Explicit,
     /// The force's stiff part linearised in the velocity and taken `alpha` of the way along the
-    /// step, inside the predictor ([`BendingImplicit`](crate::membrane::BendingImplicit);
+    /// step, inside the predictor ([`BendingImplicit`](crate::membrane::bending_implicit::BendingImplicit);
     /// `alpha` in `[0.5, 1]`: 0.5 would be second order but leaves the shortest waves
     /// undamped, and at large steps `alpha` 0.5 and 0.6 lose the shape where 1 holds it; see
     /// the measurements there). Stable to `dt <= 6 mu h^2 / E_b`
@@ -282,7 +284,7 @@ pub enum GsTransport {
     /// value is turned into the cell's tangent plane, and the stretching term leaves out that
     /// turn of the frame along the path.
     ///
-    /// [`StrainTransport::with_tangent_frame`]: crate::membrane::StrainTransport::with_tangent_frame
+    /// [`StrainTransport::with_tangent_frame`]: crate::membrane::strain::StrainTransport::with_tangent_frame
     TangentFrame,
     /// [`TangentFrame`](Self::TangentFrame), then the projection of
     /// [`Tangential`](Self::Tangential).

@@ -23,14 +23,14 @@
 //!   in shear, is stable at `0.22` and fails at `0.29 mu h^3 / E_b`; a soft capsule,
 //!   `E_s = 100`, at `0.48`-`0.92`);
 //! - semi-implicit bending ([`BendingCoupling::SemiImplicit`], the default; its stiff part in
-//!   the predictor, [`BendingImplicit`](crate::membrane::BendingImplicit)): the soft capsule
+//!   the predictor, [`BendingImplicit`](crate::membrane::bending_implicit::BendingImplicit)): the soft capsule
 //!   is stable to `9.9`-`16.7 mu h^2 / E_b` (38 to 73 times the explicit limit at `h = 1/4`
 //!   and `1/6`), where the predictor stops converging; rule `dt <= C_BENDING_SEMI_IMPLICIT mu
 //!   h^2 / E_b` with [`C_BENDING_SEMI_IMPLICIT`].
 //!
 //! `mu` is the mean of the inner and outer viscosities, `h` the smallest spacing, `K` the
 //! area-dilation modulus of the law (the larger small-strain modulus, see
-//! [`small_strain_moduli`](crate::membrane::small_strain_moduli); `K = E_s` for [`NeoHookean`](crate::membrane::NeoHookean)).
+//! [`small_strain_moduli`](crate::membrane::law::small_strain_moduli); `K = E_s` for [`NeoHookean`](crate::membrane::law::NeoHookean)).
 //! The constants keep a margin of 1.2–1.7 below the smallest measured limits.
 //!
 //! Two limits are not in this rule: advection (the shear cases of the suite fail near a CFL
@@ -44,7 +44,7 @@
 //! [`StepReport`](super::StepReport) carries a
 //! [`StepWarning::DtAboveLimit`](super::StepWarning::DtAboveLimit) (the library never prints).
 
-use super::{BendingCoupling, Effect, MembraneCoupling, Setup, Simulation};
+use super::{BendingCoupling, MembraneCoupling, Simulation, effect::Effect, effect::Setup};
 use crate::error::positive;
 use crate::{Error, Real, Result};
 

@@ -6,7 +6,7 @@
 //! Each step [`AdaptiveDt`] takes the smallest of
 //! - the largest step the user allows (`max_dt`, the `dt` a fixed run would take);
 //! - the advective limit `cfl h / max|v|`, with `max|v| / h` of the current velocity
-//!   ([`FlowStepper::cfl`](crate::fluid::FlowStepper::cfl)`(1)`) and `cfl` the target Courant
+//!   ([`FlowStepper::cfl`](crate::fluid::stepper::FlowStepper::cfl)`(1)`) and `cfl` the target Courant
 //!   number (default [`AdaptiveDt::DEFAULT_CFL`]);
 //! - `safety` times the effects' limits ([`Simulation::membrane_dt_limit`]: the in-plane and
 //!   bending rules of [`stability`](super::stability), and a user effect's own
@@ -32,8 +32,8 @@
 //! ```
 //! use eulermembrane::grid::Grid;
 //! use eulermembrane::interface::shapes::Sphere;
-//! use eulermembrane::membrane::NeoHookean;
-//! use eulermembrane::simulation::{AdaptiveDt, Phase, Scene};
+//! use eulermembrane::membrane::law::NeoHookean;
+//! use eulermembrane::simulation::{timestep::AdaptiveDt, Phase, Scene};
 //!
 //! let grid = Grid::<f64>::periodic([16; 3], [0.0; 3], [1.0; 3])?;
 //! let mut sim = Scene::new(grid, Phase::new(1.0, 1.0)?)
@@ -135,7 +135,7 @@ impl AdaptiveDt {
     /// capsule cases stop being stable (`docs/stability.md`).
     ///
     /// ```
-    /// use eulermembrane::simulation::AdaptiveDt;
+    /// use eulermembrane::simulation::timestep::AdaptiveDt;
     ///
     /// let stepping = AdaptiveDt::new(0.05)?; // the validated default: Courant target 0.3
     /// let careful = AdaptiveDt::new(0.05)?.cfl(0.15)?; // half the step, for a convergence check

@@ -4,7 +4,9 @@
 
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
-use crate::membrane::{Band, SurfaceExtension, SurfaceKinematics, surface_kinematics};
+use crate::membrane::{
+    band::Band, extension::SurfaceExtension, stress::SurfaceKinematics, stress::surface_kinematics,
+};
 use crate::{Error, Real, Result};
 use rayon::prelude::*;
 
@@ -61,7 +63,7 @@ impl<T: Real> MembraneView<'_, T> {
     /// Runs `f(box_grid, x, y)` for this capsule, for a force of its membrane: `x` is the
     /// staggered field `x` of the simulation's grid `grid` as the capsule's box sees it, and what
     /// `f` adds to `y` is added to `out` of `grid`, both on the faces of the band and its
-    /// [`MAX_HALO`](crate::membrane::MAX_HALO) halo layers only (where a membrane force and its
+    /// [`MAX_HALO`](crate::membrane::band::MAX_HALO) halo layers only (where a membrane force and its
     /// stencils reach; a force elsewhere, e.g. inside the capsule, is added to `out` directly).
     /// On a whole box `f` gets `grid`, `x` and `out` themselves.
     ///
@@ -86,8 +88,8 @@ impl<T: Real> MembraneView<'_, T> {
         // Only the faces of the band and its halo layers, where the membrane terms read and
         // write (their stencils and the membrane map's reach two cells beyond the band).
         let dims = grid.dims();
-        let cells = self.band.halo(crate::membrane::MAX_HALO);
-        let coords = self.band.coords(crate::membrane::MAX_HALO);
+        let cells = self.band.halo(crate::membrane::band::MAX_HALO);
+        let coords = self.band.coords(crate::membrane::band::MAX_HALO);
         let w = self.window;
         // One component a task: each writes its own field.
         bx.c.par_iter_mut().zip(by.c.par_iter_mut()).zip(x.c.par_iter()).for_each(|((bx, by), x)| {

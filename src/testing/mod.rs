@@ -8,7 +8,7 @@
 //! does not stop a simulation: it makes it wrong. [`check_law`] finds such mistakes:
 //!
 //! ```
-//! use eulermembrane::membrane::SurfaceLaw;
+//! use eulermembrane::membrane::law::SurfaceLaw;
 //! use eulermembrane::testing::{Property, check_law};
 //!
 //! /// Membrane Mooney–Rivlin law (Barthès-Biesel et al. 2002), psi = 0.3, G_s = 1.
@@ -38,7 +38,7 @@
 //! and names the property that fails, where and by how much:
 //!
 //! ```
-//! # use eulermembrane::membrane::{NeoHookean, SurfaceLaw};
+//! # use eulermembrane::membrane::{law::NeoHookean, law::SurfaceLaw};
 //! # use eulermembrane::testing::{LawCheckError, Property, check_law};
 //! /// The neo-Hookean law (2.5) with a wrong power of c2 in W_22 (right at c2 = 1).
 //! struct Wrong(NeoHookean<f64>);
@@ -87,7 +87,7 @@
 //! proptest turns into a failing case, so `?` works in a `proptest!` body:
 //!
 //! ```
-//! use eulermembrane::membrane::Skalak;
+//! use eulermembrane::membrane::law::Skalak;
 //! use eulermembrane::testing::{arb_probe, check_at, config};
 //! use proptest::prelude::*;
 //!
@@ -114,8 +114,8 @@ pub use strategies::{
 use crate::Error;
 use crate::membrane::law::{SurfaceLaw, check_stress_free, small_strain_moduli};
 use crate::membrane::{
-    energy_density, h_tensor, jacobian, principal_tensions, stress, stress_and_jacobian, stretching,
-    surface_kinematics, tension_invariants,
+    stress::energy_density, stress::h_tensor, stress::jacobian, stress::principal_tensions, stress::stress,
+    stress::stress_and_jacobian, stress::stretching, stress::surface_kinematics, stress::tension_invariants,
 };
 use crate::tensor::{
     Sym, ddot, mat_to_sym, matmul, project, projector, rotate, sym_mul_vec, sym_to_mat, transpose,
@@ -396,7 +396,7 @@ pub fn check_at<L: SurfaceLaw<f64> + ?Sized>(law: &L, probe: &Probe) -> Result<L
 ///
 /// # Example
 /// ```
-/// use eulermembrane::membrane::NeoHookean;
+/// use eulermembrane::membrane::law::NeoHookean;
 /// use eulermembrane::testing::{Property, check_derivatives};
 ///
 /// let report = check_derivatives(&NeoHookean::new(3.0)?, 2.5, 0.3)?;
@@ -435,7 +435,7 @@ fn rel(num: f64, den: f64) -> f64 {
     if num == 0.0 { 0.0 } else { num / den }
 }
 
-/// Per-tensor-entry weights of the [`Sym`] components (see [`crate::membrane::stress`]).
+/// Per-tensor-entry weights of the [`Sym`] components (see [`crate::membrane::stress::stress`]).
 const SYM_WEIGHT: [f64; 6] = [1.0, 1.0, 1.0, 2.0, 2.0, 2.0];
 
 struct Checker<'a, L: ?Sized> {
@@ -655,7 +655,7 @@ impl<'a, L: SurfaceLaw<f64> + ?Sized> Checker<'a, L> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::membrane::{NeoHookean, Skalak};
+    use crate::membrane::{law::NeoHookean, law::Skalak};
 
     /// The neo-Hookean law (2.5) with one derivative changed.
     struct Broken {

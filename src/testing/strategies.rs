@@ -60,7 +60,7 @@ pub fn arb_rotation() -> impl Strategy<Value = Mat3<f64>> {
 ///
 /// # Example
 /// ```
-/// use eulermembrane::membrane::surface_kinematics;
+/// use eulermembrane::membrane::stress::surface_kinematics;
 /// use eulermembrane::testing::arb_state;
 /// use proptest::prelude::*;
 ///
@@ -135,7 +135,7 @@ pub fn arb_velocity_gradient() -> impl Strategy<Value = Mat3<f64>> {
 ///
 /// # Example
 /// ```
-/// use eulermembrane::membrane::NeoHookean;
+/// use eulermembrane::membrane::law::NeoHookean;
 /// use eulermembrane::testing::{arb_probe, check_at};
 /// use proptest::prelude::*;
 ///
