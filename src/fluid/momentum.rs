@@ -199,6 +199,26 @@ pub(crate) fn edge_viscosity<T: Real>(grid: &Grid<T>, mu: &Field<T>, edge: &mut 
         };
         par_interior(grid, &mut out.data, |idx, _, _, _| crate::grid::ops::cell_to_edge(grid, mu, a, b, idx));
         out.fill_ghosts(grid);
+        // The edges on the upper sides along `a` and `b` (index `n`, the lower corners of the
+        // first ghost cells) are read by the stencils of the last faces: average their four
+        // cells too, from `mu`'s ghosts, instead of copying a neighbouring edge (which at a
+        // wall gave the upper wall another viscosity than the lower one).
+        let n = grid.n();
+        let at = |ijk: [usize; 3]| grid.idx_u(ijk[0], ijk[1], ijk[2]);
+        for u in 0..=n[b] {
+            for w in 0..n[e] {
+                let mut ijk = [0; 3];
+                (ijk[a], ijk[b], ijk[e]) = (n[a], u, w);
+                out.data[at(ijk)] = crate::grid::ops::cell_to_edge(grid, mu, a, b, at(ijk));
+            }
+        }
+        for u in 0..n[a] {
+            for w in 0..n[e] {
+                let mut ijk = [0; 3];
+                (ijk[a], ijk[b], ijk[e]) = (u, n[b], w);
+                out.data[at(ijk)] = crate::grid::ops::cell_to_edge(grid, mu, a, b, at(ijk));
+            }
+        }
     }
 }
 
