@@ -204,19 +204,13 @@ pub(crate) fn edge_viscosity<T: Real>(grid: &Grid<T>, mu: &Field<T>, edge: &mut 
         // cells too, from `mu`'s ghosts, instead of copying a neighbouring edge (which at a
         // wall gave the upper wall another viscosity than the lower one).
         let n = grid.n();
-        let at = |ijk: [usize; 3]| grid.idx_u(ijk[0], ijk[1], ijk[2]);
-        for u in 0..=n[b] {
+        let upper = (0..=n[b]).map(|v| (n[a], v)).chain((0..n[a]).map(|u| (u, n[b])));
+        for (u, v) in upper {
             for w in 0..n[e] {
                 let mut ijk = [0; 3];
-                (ijk[a], ijk[b], ijk[e]) = (n[a], u, w);
-                out.data[at(ijk)] = crate::grid::ops::cell_to_edge(grid, mu, a, b, at(ijk));
-            }
-        }
-        for u in 0..n[a] {
-            for w in 0..n[e] {
-                let mut ijk = [0; 3];
-                (ijk[a], ijk[b], ijk[e]) = (u, n[b], w);
-                out.data[at(ijk)] = crate::grid::ops::cell_to_edge(grid, mu, a, b, at(ijk));
+                (ijk[a], ijk[b], ijk[e]) = (u, v, w);
+                let idx = grid.idx_u(ijk[0], ijk[1], ijk[2]);
+                out.data[idx] = crate::grid::ops::cell_to_edge(grid, mu, a, b, idx);
             }
         }
     }
