@@ -11,7 +11,8 @@ use eulermembrane::grid::{Grid, VectorField};
 use eulermembrane::interface::geometry::Geometry;
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
 use eulermembrane::interface::{
-    advect::AdvectionParams, advect::Advector, advect::Carried, geometry::NormalScheme,
+    advect::{AdvectionParams, Advector, Carried},
+    geometry::NormalScheme,
 };
 use std::f64::consts::PI;
 

@@ -3,7 +3,9 @@
 //! (SOR at the paper's stiffness is compared in the `solver_compare` example).
 use criterion::{Criterion, criterion_group, criterion_main};
 use eulermembrane::fluid::{
-    momentum::Materials, sor::SorParams, stepper::FlowConfig, stepper::FlowStepper, stepper::PredictorSolver,
+    momentum::Materials,
+    sor::SorParams,
+    stepper::{FlowConfig, FlowStepper, PredictorSolver},
 };
 use eulermembrane::grid::{Boundary, Grid};
 

@@ -35,18 +35,23 @@ use eulermembrane::fluid::momentum::Predictor;
 use eulermembrane::fluid::projection::Projection;
 use eulermembrane::fluid::spectral::{Location, SpectralSolver};
 use eulermembrane::fluid::{
-    forcing::Forcing, krylov::KrylovParams, krylov::KrylovWorkspace, krylov::LinOp, momentum::Coefficient,
-    momentum::HelmholtzPrecond, momentum::Materials,
+    forcing::Forcing,
+    krylov::{KrylovParams, KrylovWorkspace, LinOp},
+    momentum::{Coefficient, HelmholtzPrecond, Materials},
 };
 use eulermembrane::grid::{Boundary, Field, Grid, SymField, VectorField};
 use eulermembrane::interface::geometry::{PhiRange, delta_in_band};
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
 use eulermembrane::interface::{
-    advect::AdvectionParams, advect::Advector, advect::Carried, geometry::Geometry, geometry::NormalScheme,
+    advect::{AdvectionParams, Advector, Carried},
+    geometry::{Geometry, NormalScheme},
 };
 use eulermembrane::membrane::{
-    band::Band, bending::BendingStress, force::InPlaneElasticity, law::Skalak, strain::StrainTransport,
-    strain::fill_projector,
+    band::Band,
+    bending::BendingStress,
+    force::InPlaneElasticity,
+    law::Skalak,
+    strain::{StrainTransport, fill_projector},
 };
 use std::hint::black_box;
 use std::time::Duration;

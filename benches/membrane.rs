@@ -8,8 +8,11 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use eulermembrane::fluid::{forcing::Forcing, momentum::ImplicitTerm};
 use eulermembrane::grid::{Field, Grid, SymField, VectorField};
 use eulermembrane::membrane::{
-    band::Band, bending::BendingStress, force::InPlaneElasticity, law::Skalak, strain::StrainTransport,
-    strain::fill_projector,
+    band::Band,
+    bending::BendingStress,
+    force::InPlaneElasticity,
+    law::Skalak,
+    strain::{StrainTransport, fill_projector},
 };
 use std::hint::black_box;
 use std::time::Duration;

@@ -42,7 +42,10 @@
 //! 6.5e-3), or if an accepted step of the driver broke its own criterion.
 
 use eulermembrane::Error;
-use eulermembrane::diagnostics::{taylor::taylor_deformation, volume::centroid, volume::volume};
+use eulermembrane::diagnostics::{
+    taylor::taylor_deformation,
+    volume::{centroid, volume},
+};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::law::NeoHookean;

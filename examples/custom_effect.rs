@@ -54,7 +54,10 @@ use eulermembrane::Error;
 use eulermembrane::grid::{Grid, VectorField};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::law::NeoHookean;
-use eulermembrane::simulation::{Phase, Scene, effect::Effect, effect::StepState};
+use eulermembrane::simulation::{
+    Phase, Scene,
+    effect::{Effect, StepState},
+};
 use std::f64::consts::PI;
 use std::time::Instant;
 

@@ -13,18 +13,20 @@
 //! ```
 
 pub use crate::fluid::{
-    forcing::BodyForce, forcing::Forcing, momentum::ImplicitTerm, momentum::Materials,
-    momentum::MomentumSolver, projection::PressureSolver, stepper::FlowConfig, stepper::FlowStepper,
-    stepper::ViscousScheme,
+    forcing::{BodyForce, Forcing},
+    momentum::{ImplicitTerm, Materials, MomentumSolver},
+    projection::PressureSolver,
+    stepper::{FlowConfig, FlowStepper, ViscousScheme},
 };
 pub use crate::grid::{Boundary, Field, Grid, SymField, VectorField};
 pub use crate::interface::shapes::{Biconcave, Circle, Ellipse, Ellipsoid, Shape, Sphere};
 pub use crate::interface::{advect::InterfaceTransport, geometry::NormalEstimator};
-pub use crate::membrane::{law::NeoHookean, law::Skalak, law::SurfaceLaw};
+pub use crate::membrane::law::{NeoHookean, Skalak, SurfaceLaw};
 pub use crate::simulation::observer::{Checkpoints, Every, Observer, Progress, VtkSeries};
 pub use crate::simulation::{
     Bending, BendingCoupling, Elasticity, GsTransport, MembraneCoupling, Phase, Scene, Settings, Simulation,
-    StepReport, StepWarning, SurfaceLoad, Traction, effect::Effect, effect::StepState, timestep::AdaptiveDt,
-    timestep::FixedDt, timestep::TimeStepping,
+    StepReport, StepWarning, SurfaceLoad, Traction,
+    effect::{Effect, StepState},
+    timestep::{AdaptiveDt, FixedDt, TimeStepping},
 };
 pub use crate::{Error, Real, Result};

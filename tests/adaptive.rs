@@ -6,7 +6,8 @@ use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::observer::Observer;
 use eulermembrane::simulation::{
-    Phase, Scene, Simulation, StepReport, StepWarning, effect::Effect, effect::StepState,
+    Phase, Scene, Simulation, StepReport, StepWarning,
+    effect::{Effect, StepState},
     timestep::AdaptiveDt,
 };
 use eulermembrane::{Error, Result};

@@ -4,28 +4,40 @@
 //! checkpoint write leaves the previous checkpoint intact.
 
 use eulermembrane::diagnostics::{
-    area::AreaTracker, area::area_from_delta, energy::EnergyBudget, energy::EnergyState, modes::ModeWeight,
-    modes::surface_modes, profile::ProfileAxes, profile::Span, profile::streamwise_profile,
-    taylor::fit_ellipse, taylor::section_contour, volume::centroid, volume::volume,
+    area::{AreaTracker, area_from_delta},
+    energy::{EnergyBudget, EnergyState},
+    modes::{ModeWeight, surface_modes},
+    profile::{ProfileAxes, Span, streamwise_profile},
+    taylor::{fit_ellipse, section_contour},
+    volume::{centroid, volume},
 };
 use eulermembrane::fluid::{
-    krylov::KrylovParams, momentum::Coefficient, momentum::Materials, sor::SorParams, spectral::Location,
-    spectral::SpectralSolver, stepper::FlowConfig, stepper::FlowStepper, stepper::PredictorSolver,
+    krylov::KrylovParams,
+    momentum::{Coefficient, Materials},
+    sor::SorParams,
+    spectral::{Location, SpectralSolver},
+    stepper::{FlowConfig, FlowStepper, PredictorSolver},
 };
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{
     Biconcave, Circle, Ellipse, Ellipsoid, SignedDistanceFn, Smoothing, Sphere,
 };
 use eulermembrane::interface::{
-    self, advect::AdvectionParams, advect::Advector, advect::Carried, geometry::Geometry,
-    geometry::NormalScheme,
+    self,
+    advect::{AdvectionParams, Advector, Carried},
+    geometry::{Geometry, NormalScheme},
 };
 use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use eulermembrane::io::vtk::VtiWriter;
-use eulermembrane::membrane::{self, bending::BendingStress, law::NeoHookean, law::Skalak};
+use eulermembrane::membrane::{
+    self,
+    bending::BendingStress,
+    law::{NeoHookean, Skalak},
+};
 use eulermembrane::simulation::{
-    Bending, Elasticity, Phase, Scene, Settings, Simulation, StepWarning, Traction, effect::Effect,
-    effect::Setup, effect::StepState, timestep::AdaptiveDt, timestep::TimeStepping,
+    Bending, Elasticity, Phase, Scene, Settings, Simulation, StepWarning, Traction,
+    effect::{Effect, Setup, StepState},
+    timestep::{AdaptiveDt, TimeStepping},
 };
 use eulermembrane::{Error, Result};
 use proptest::prelude::*;

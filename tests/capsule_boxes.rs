@@ -7,8 +7,9 @@ use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{
-    CapsuleStorage, Elasticity, Phase, Scene, Settings, Simulation, SurfaceLoad, Traction, contact::Contact,
-    contact::min_gap_cells, timestep::AdaptiveDt,
+    CapsuleStorage, Elasticity, Phase, Scene, Settings, Simulation, SurfaceLoad, Traction,
+    contact::{Contact, min_gap_cells},
+    timestep::AdaptiveDt,
 };
 
 /// A neo-Hookean sphere of radius 0.25 (4 cells) carried along x across the periodic seam by a

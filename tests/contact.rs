@@ -11,7 +11,9 @@ use eulermembrane::grid::{Grid, VectorField};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{
-    Phase, Scene, contact::Contact, contact::min_gap_cells, effect::Effect, effect::StepState,
+    Phase, Scene,
+    contact::{Contact, min_gap_cells},
+    effect::{Effect, StepState},
 };
 
 /// Cells per unit length.

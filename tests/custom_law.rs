@@ -16,8 +16,9 @@
 
 use eulermembrane::membrane::law::check_stress_free;
 use eulermembrane::membrane::{
-    law::NeoHookean, law::SurfaceLaw, law::small_strain_moduli, loading::uniaxial_tension, stress::jacobian,
-    stress::stress, stress::stress_and_jacobian, stress::tension_invariants,
+    law::{NeoHookean, SurfaceLaw, small_strain_moduli},
+    loading::uniaxial_tension,
+    stress::{jacobian, stress, stress_and_jacobian, tension_invariants},
 };
 use eulermembrane::tensor::Sym;
 use eulermembrane::testing::{

@@ -4,15 +4,19 @@
 //! Each test prints the measured errors (run with `--nocapture` to see them).
 
 use eulermembrane::diagnostics::{
-    area::AreaTracker, area::area_from_delta, area::dilation_rate, energy::DissipationForm,
-    energy::EnergyBudget, energy::EnergyState, energy::body_force_power, energy::elastic_energy,
-    energy::kinetic_energy, energy::viscous_dissipation, modes::ModeWeight, modes::mode_amplitudes,
-    modes::surface_modes, profile::ProfileAxes, profile::Span, profile::streamwise_profile,
-    taylor::fit_ellipse, taylor::section_contour, taylor::taylor_deformation, volume::centroid,
-    volume::volume,
+    area::{AreaTracker, area_from_delta, dilation_rate},
+    energy::{
+        DissipationForm, EnergyBudget, EnergyState, body_force_power, elastic_energy, kinetic_energy,
+        viscous_dissipation,
+    },
+    modes::{ModeWeight, mode_amplitudes, surface_modes},
+    profile::{ProfileAxes, Span, streamwise_profile},
+    taylor::{fit_ellipse, section_contour, taylor_deformation},
+    volume::{centroid, volume},
 };
 use eulermembrane::fluid::{
-    momentum::Coefficient, momentum::Materials, stepper::FlowConfig, stepper::FlowStepper,
+    momentum::{Coefficient, Materials},
+    stepper::{FlowConfig, FlowStepper},
 };
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField};
 use eulermembrane::{Error, Real};

@@ -4,11 +4,11 @@
 
 use eulermembrane::grid::{Boundary, Grid, VectorField};
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::{law::NeoHookean, law::Skalak, law::SurfaceLaw};
+use eulermembrane::membrane::law::{NeoHookean, Skalak, SurfaceLaw};
 use eulermembrane::simulation::observer::{Checkpoints, Observer, VtkSeries};
 use eulermembrane::simulation::{
-    Elasticity, Phase, Scene, Simulation, StepReport, StepWarning, effect::Effect, effect::EnergyRole,
-    effect::StepState,
+    Elasticity, Phase, Scene, Simulation, StepReport, StepWarning,
+    effect::{Effect, EnergyRole, StepState},
 };
 use eulermembrane::{Error, Real, Result};
 

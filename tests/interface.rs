@@ -2,14 +2,12 @@
 //! N = 32, a 3D translation, shapes and their volumes, geometry integrals, errors.
 
 use eulermembrane::grid::{Field, Grid, VectorField};
+use eulermembrane::interface::advect::{AdvectionParams, Advector, Carried, cfl_number};
 use eulermembrane::interface::geometry::{Geometry, NormalScheme, PhiRange, delta_in_band};
 use eulermembrane::interface::mthinc::{CellQuadrature, Reconstruction, cell_average, solve_offset};
 use eulermembrane::interface::shapes::{
     Biconcave, Circle, Ellipse, Ellipsoid, Shape, SignedDistanceFn, Smoothing, Sphere, convolved_curvature,
     smoothed_fields, smoothed_phi,
-};
-use eulermembrane::interface::{
-    advect::AdvectionParams, advect::Advector, advect::Carried, advect::cfl_number,
 };
 use eulermembrane::{Error, Real};
 use proptest::prelude::*;

@@ -14,15 +14,22 @@
 #![allow(clippy::needless_range_loop)]
 
 use eulermembrane::fluid::{
-    forcing::Forcing, momentum::ImplicitTerm, momentum::Materials, sor::SorParams, stepper::FlowConfig,
-    stepper::FlowStepper, stepper::PredictorSolver,
+    forcing::Forcing,
+    momentum::{ImplicitTerm, Materials},
+    sor::SorParams,
+    stepper::{FlowConfig, FlowStepper, PredictorSolver},
 };
 use eulermembrane::grid::{Field, Grid, SymField, VectorField};
 use eulermembrane::membrane::{
-    band::Band, bending::BendingForm, bending::BendingStress, bending::mean_curvature_at,
-    force::InPlaneElasticity, law::NeoHookean, law::Skalak, law::SurfaceLaw, loading::equibiaxial_tension,
-    strain::StrainAdvection, strain::StrainTransport, strain::advective_tendency,
-    strain::advective_tendency_in_frame, strain::fill_projector, strain::reset_outside_band,
+    band::Band,
+    bending::{BendingForm, BendingStress, mean_curvature_at},
+    force::InPlaneElasticity,
+    law::{NeoHookean, Skalak, SurfaceLaw},
+    loading::equibiaxial_tension,
+    strain::{
+        StrainAdvection, StrainTransport, advective_tendency, advective_tendency_in_frame, fill_projector,
+        reset_outside_band,
+    },
 };
 use eulermembrane::tensor::{Sym, cross, projector};
 use std::f64::consts::PI;

@@ -10,8 +10,9 @@
 //! `E_s ∈ [0.1, 10]`, `α ∈ [0, 50]`. 256 cases per property.
 
 use eulermembrane::membrane::{
-    law::NeoHookean, law::Skalak, law::SurfaceLaw, loading::equibiaxial_stretch,
-    loading::equibiaxial_tension, loading::uniaxial_tension, stress::tension_invariants,
+    law::{NeoHookean, Skalak, SurfaceLaw},
+    loading::{equibiaxial_stretch, equibiaxial_tension, uniaxial_tension},
+    stress::tension_invariants,
     wrinkling::TensionField,
 };
 use eulermembrane::testing::{

@@ -6,8 +6,9 @@
 //! `docs/validation/surface_mobility.md`; here at 3 and 4 cells per radius.
 
 use eulermembrane::diagnostics::{
-    mobility::StokesL2, mobility::l2_normal_mode as normal_mode,
-    mobility::l2_tangential_mode as tangential_mode, mobility::surface_velocity_projection,
+    mobility::l2_normal_mode as normal_mode,
+    mobility::l2_tangential_mode as tangential_mode,
+    mobility::{StokesL2, surface_velocity_projection},
 };
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;

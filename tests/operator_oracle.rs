@@ -25,7 +25,8 @@ use eulermembrane::fluid::krylov::{KrylovParams, KrylovWorkspace, bicgstab, pcg}
 use eulermembrane::fluid::momentum::Predictor;
 use eulermembrane::fluid::projection::Projection;
 use eulermembrane::fluid::{
-    krylov::LinOp, momentum::Coefficient, momentum::HelmholtzPrecond, momentum::Materials,
+    krylov::LinOp,
+    momentum::{Coefficient, HelmholtzPrecond, Materials},
 };
 use eulermembrane::grid::ops::{divergence, gradient};
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField};

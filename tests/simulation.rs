@@ -2,12 +2,18 @@
 //! restart, refused scenes, and small physical checks.
 
 use eulermembrane::Error;
-use eulermembrane::fluid::{sor::SorParams, stepper::FlowConfig, stepper::PredictorSolver};
+use eulermembrane::fluid::{
+    sor::SorParams,
+    stepper::{FlowConfig, PredictorSolver},
+};
 use eulermembrane::grid::ops::cell_vector;
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::geometry::NormalScheme;
 use eulermembrane::interface::shapes::{Circle, Sphere};
-use eulermembrane::membrane::{bending::BendingForm, law::NeoHookean, law::Skalak};
+use eulermembrane::membrane::{
+    bending::BendingForm,
+    law::{NeoHookean, Skalak},
+};
 use eulermembrane::simulation::{
     Bending, Elasticity, GsTransport, MembraneCoupling, Phase, ReferenceArea, Scene, Settings, Simulation,
     SurfaceLoad, Traction,

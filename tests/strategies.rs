@@ -4,13 +4,15 @@
 //! that fails fails the step and leaves the state as it was.
 
 use eulermembrane::fluid::{
-    krylov::KrylovInfo, momentum::Coefficient, momentum::KrylovMomentum, momentum::MomentumSolver,
-    momentum::MomentumSystem, projection::PressureSolver, projection::SpectralPcg, stepper::FlowConfig,
+    krylov::KrylovInfo,
+    momentum::{Coefficient, KrylovMomentum, MomentumSolver, MomentumSystem},
+    projection::{PressureSolver, SpectralPcg},
+    stepper::FlowConfig,
 };
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::{
-    advect::AdvectionInfo, advect::AdvectionParams, advect::Advector, advect::InterfaceTransport,
-    geometry::Geometry, geometry::NormalEstimator, geometry::NormalScheme, geometry::PhiRange,
+    advect::{AdvectionInfo, AdvectionParams, Advector, InterfaceTransport},
+    geometry::{Geometry, NormalEstimator, NormalScheme, PhiRange},
 };
 use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
 use eulermembrane::prelude::*;

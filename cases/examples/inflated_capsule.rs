@@ -23,7 +23,10 @@ use eulermembrane_cases as common;
 use common::{Args, BoxResult, num, result};
 use eulermembrane::grid::Grid;
 use eulermembrane::interface::shapes::Sphere;
-use eulermembrane::membrane::{law::NeoHookean, law::Skalak, law::SurfaceLaw, loading::equibiaxial_tension};
+use eulermembrane::membrane::{
+    law::{NeoHookean, Skalak, SurfaceLaw},
+    loading::equibiaxial_tension,
+};
 use eulermembrane::simulation::{Elasticity, Phase, Scene, Settings, Traction};
 use eulermembrane_cases::csv::write_columns;
 use eulermembrane_cases::plot::Figure;

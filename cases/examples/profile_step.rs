@@ -7,7 +7,10 @@
 //!
 //! Prints wall and CPU time per step (CPU time of all threads: the machine may be shared).
 use eulermembrane::Real;
-use eulermembrane::fluid::{momentum::Materials, stepper::FlowConfig, stepper::FlowStepper};
+use eulermembrane::fluid::{
+    momentum::Materials,
+    stepper::{FlowConfig, FlowStepper},
+};
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::law::Skalak;

@@ -67,7 +67,8 @@ use eulermembrane_cases as common;
 
 use common::{Args, BoxResult, Terms, num, result};
 use eulermembrane::diagnostics::{
-    area::AreaTracker, profile::ProfileAxes, profile::Span, profile::streamwise_profile,
+    area::AreaTracker,
+    profile::{ProfileAxes, Span, streamwise_profile},
     tangency::gs_tangency,
 };
 use eulermembrane::grid::{Boundary, Field, Grid};

@@ -8,8 +8,10 @@
 use eulermembrane_cases as common;
 
 use eulermembrane::fluid::{
-    krylov::KrylovParams, momentum::Materials, sor::SorParams, stepper::FlowConfig, stepper::FlowStepper,
-    stepper::PredictorSolver,
+    krylov::KrylovParams,
+    momentum::Materials,
+    sor::SorParams,
+    stepper::{FlowConfig, FlowStepper, PredictorSolver},
 };
 use eulermembrane::grid::{Boundary, Grid};
 use std::time::Instant;

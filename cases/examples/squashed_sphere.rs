@@ -49,7 +49,10 @@
 use eulermembrane_cases as common;
 
 use common::{Args, num, order, result};
-use eulermembrane::diagnostics::{energy::EnergyBudget, modes::ModeWeight, modes::surface_modes};
+use eulermembrane::diagnostics::{
+    energy::EnergyBudget,
+    modes::{ModeWeight, surface_modes},
+};
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::vtk::PvdSeries;

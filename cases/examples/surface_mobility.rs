@@ -44,8 +44,9 @@ use eulermembrane_cases as common;
 
 use common::{Args, BoxResult, num, result};
 use eulermembrane::diagnostics::{
-    mobility::StokesL2, mobility::l2_normal_mode as normal_mode,
-    mobility::l2_tangential_mode as tangential_mode, mobility::surface_velocity_projection,
+    mobility::l2_normal_mode as normal_mode,
+    mobility::l2_tangential_mode as tangential_mode,
+    mobility::{StokesL2, surface_velocity_projection},
 };
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;

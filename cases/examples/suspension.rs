@@ -68,8 +68,9 @@ use eulermembrane::interface::placement::{Domain, Placed, Placement, Prototype, 
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{
-    CapsuleStorage, Elasticity, Phase, Scene, Settings, Simulation, Traction, contact::Contact,
-    contact::min_gap_cells, timestep::AdaptiveDt, timestep::TimeStepping,
+    CapsuleStorage, Elasticity, Phase, Scene, Settings, Simulation, Traction,
+    contact::{Contact, min_gap_cells},
+    timestep::{AdaptiveDt, TimeStepping},
 };
 use std::path::Path;
 use std::time::Instant;

@@ -14,7 +14,8 @@
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{Smoothing, Sphere, smoothed_fields};
 use eulermembrane::interface::{
-    advect::AdvectionParams, advect::Advector, advect::Carried, geometry::NormalScheme,
+    advect::{AdvectionParams, Advector, Carried},
+    geometry::NormalScheme,
 };
 use std::io::Write as _;
 

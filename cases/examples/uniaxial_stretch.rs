@@ -36,7 +36,10 @@
 
 use eulermembrane_cases as common;
 
-use eulermembrane::membrane::{law::NeoHookean, law::Skalak, law::SurfaceLaw, loading::uniaxial_tension};
+use eulermembrane::membrane::{
+    law::{NeoHookean, Skalak, SurfaceLaw},
+    loading::uniaxial_tension,
+};
 use std::fmt::Write as _;
 
 use common::BoxResult;

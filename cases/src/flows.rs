@@ -2,8 +2,9 @@
 //! `two_layer_couette`) and `tests/flow.rs`: each runs the public API and returns measured errors.
 
 use eulermembrane::fluid::{
-    forcing::BodyForce, momentum::Materials, stepper::FlowConfig, stepper::FlowStepper,
-    stepper::PredictorSolver,
+    forcing::BodyForce,
+    momentum::Materials,
+    stepper::{FlowConfig, FlowStepper, PredictorSolver},
 };
 use eulermembrane::grid::{Boundary, Field, Grid};
 use std::f64::consts::PI;

@@ -20,7 +20,8 @@ use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::{law::NeoHookean, wrinkling::TensionField};
 use eulermembrane::simulation::{
-    Phase, Scene, Settings, Simulation, timestep::AdaptiveDt, timestep::FixedDt, timestep::TimeStepping,
+    Phase, Scene, Settings, Simulation,
+    timestep::{AdaptiveDt, FixedDt, TimeStepping},
 };
 use std::path::Path;
 use std::time::Instant;

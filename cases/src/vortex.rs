@@ -13,7 +13,8 @@ use eulermembrane::Real;
 use eulermembrane::grid::{Field, Grid, VectorField};
 use eulermembrane::interface::shapes::{Ellipse, Smoothing, smoothed_fields};
 use eulermembrane::interface::{
-    advect::AdvectionParams, advect::Advector, advect::Carried, geometry::NormalScheme,
+    advect::{AdvectionParams, Advector, Carried},
+    geometry::NormalScheme,
     mthinc::CellQuadrature,
 };
 use std::f64::consts::PI;

@@ -1,8 +1,11 @@
 //! The flow stepper against analytic solutions at small N (the large runs are the examples
 //! `taylor_green`, `channel_flow`, `two_layer_couette`, `solver_compare`).
 use eulermembrane::fluid::{
-    forcing::Forcing, krylov::KrylovParams, momentum::Coefficient, momentum::Materials, sor::SorParams,
-    stepper::FlowConfig, stepper::FlowStepper, stepper::PredictorSolver,
+    forcing::Forcing,
+    krylov::KrylovParams,
+    momentum::{Coefficient, Materials},
+    sor::SorParams,
+    stepper::{FlowConfig, FlowStepper, PredictorSolver},
 };
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField, ops::par_interior_update};
 use eulermembrane::{Error, Real};

@@ -1000,8 +1000,10 @@ fn first_crossing(values: impl Iterator<Item = f64>) -> Option<f64> {
 mod tests {
     use super::*;
     use crate::fluid::{
-        forcing::Forcing, krylov::KrylovParams, momentum::Materials, stepper::FlowConfig,
-        stepper::FlowStepper, stepper::PredictorSolver, stepper::ViscousScheme,
+        forcing::Forcing,
+        krylov::KrylovParams,
+        momentum::Materials,
+        stepper::{FlowConfig, FlowStepper, PredictorSolver, ViscousScheme},
     };
     use crate::grid::Boundary;
     use crate::interface::shapes::{Circle, Smoothing, smoothed_phi};

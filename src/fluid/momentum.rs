@@ -14,8 +14,8 @@
 //!   zero).
 
 use super::krylov::{KrylovInfo, KrylovParams, KrylovWorkspace, bicgstab};
+use super::krylov::{LinOp, Precond};
 use super::spectral::{Location, SpectralSolver};
-use super::{krylov::LinOp, krylov::Precond};
 use crate::grid::GHOST;
 use crate::grid::ops::{min_rows, par_interior, par_interior_update};
 use crate::grid::{Field, Grid, VectorField};

@@ -195,7 +195,7 @@ impl<T: Real, L: SurfaceLaw<T>> SurfaceLaw<T> for TensionField<L> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::membrane::{law::NeoHookean, law::Skalak};
+    use crate::membrane::law::{NeoHookean, Skalak};
 
     fn cs(x1: f64, x2: f64) -> (f64, f64) {
         (x1 + x2 - 1.0, x1 * x2)

@@ -9,9 +9,14 @@ use super::view::{LevelChoice, MembraneView, Needs, reference_integral};
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::interface::geometry::{PhiRange, delta_in_band};
 use crate::interface::shapes::{Shape, smoothed_fields, smoothed_phi};
-use crate::interface::{advect::Carried, advect::InterfaceTransport, geometry::NormalEstimator};
+use crate::interface::{
+    advect::{Carried, InterfaceTransport},
+    geometry::NormalEstimator,
+};
 use crate::membrane::{
-    band::Band, extension::SurfaceExtension, strain::StrainTransport, strain::fill_projector,
+    band::Band,
+    extension::SurfaceExtension,
+    strain::{StrainTransport, fill_projector},
 };
 use crate::{Real, Result};
 

@@ -118,7 +118,7 @@ use crate::error::positive;
 use crate::grid::{Grid, SymField, VectorField};
 use crate::interface::advect::{characteristic_length, default_tiny};
 use crate::interface::geometry::psi_of;
-use crate::membrane::{band::Band, band::MAX_HALO};
+use crate::membrane::band::{Band, MAX_HALO};
 use crate::tensor::sym_index;
 use crate::{Error, Real, Result};
 use std::sync::{Mutex, PoisonError};

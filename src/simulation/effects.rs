@@ -8,14 +8,21 @@ use super::settings::{BendingCoupling, MembraneCoupling, Traction};
 use super::stability::{bending_dt_limit, membrane_dt_limit};
 use super::view::{MembraneView, Needs, reference_integral};
 use crate::error::positive;
-use crate::fluid::{forcing::BodyForce, forcing::Forcing, momentum::ImplicitTerm, stepper::PredictorSolver};
+use crate::fluid::{
+    forcing::{BodyForce, Forcing},
+    momentum::ImplicitTerm,
+    stepper::PredictorSolver,
+};
 use crate::grid::{Grid, VectorField};
 use crate::interface::geometry::NormalScheme;
 use crate::membrane::law::check_stress_free;
 use crate::membrane::stress::SurfaceKinematics;
 use crate::membrane::{
-    bending::BendingForm, bending::BendingStress, bending_implicit::BendingImplicit,
-    extension::SurfaceExtension, force::InPlaneElasticity, law::SurfaceLaw, law::small_strain_moduli,
+    bending::{BendingForm, BendingStress},
+    bending_implicit::BendingImplicit,
+    extension::SurfaceExtension,
+    force::InPlaneElasticity,
+    law::{SurfaceLaw, small_strain_moduli},
 };
 use crate::{Error, Real, Result};
 use std::sync::Arc;

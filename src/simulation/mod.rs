@@ -79,13 +79,12 @@ pub use settings::{
 };
 pub use view::{MembraneView, Needs};
 
-use crate::diagnostics::{
-    energy::DissipationForm, energy::EnergyState, energy::StepIntegrals, energy::body_force_power,
-    energy::kinetic_energy, energy::viscous_dissipation,
+use crate::diagnostics::energy::{
+    DissipationForm, EnergyState, StepIntegrals, body_force_power, kinetic_energy, viscous_dissipation,
 };
 use crate::error::positive;
+use crate::fluid::momentum::{Coefficient, Materials};
 use crate::fluid::stepper::FlowStepper;
-use crate::fluid::{momentum::Coefficient, momentum::Materials};
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::interface::geometry::NormalEstimator;

@@ -34,7 +34,10 @@
 //! # Ok::<(), eulermembrane::Error>(())
 //! ```
 
-use super::{Simulation, StepReport, timestep::FixedDt, timestep::TimeStepping};
+use super::{
+    Simulation, StepReport,
+    timestep::{FixedDt, TimeStepping},
+};
 use crate::error::positive;
 use crate::io::vtk::PvdSeries;
 use crate::{Error, Real, Result};

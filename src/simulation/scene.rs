@@ -11,8 +11,8 @@ use crate::fluid::{forcing::BodyForce, momentum::MomentumSolver, projection::Pre
 use crate::grid::{Grid, Window};
 use crate::interface::shapes::Shape;
 use crate::interface::{
-    advect::Advector, advect::Carried, advect::InterfaceTransport, geometry::Geometry,
-    geometry::NormalEstimator,
+    advect::{Advector, Carried, InterfaceTransport},
+    geometry::{Geometry, NormalEstimator},
 };
 use crate::membrane::law::SurfaceLaw;
 use crate::{Error, Real, Result};

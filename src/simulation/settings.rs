@@ -4,11 +4,12 @@
 //! [`ReferenceArea`]).
 
 use crate::error::positive;
-use crate::fluid::{stepper::FlowConfig, stepper::ViscousScheme};
+use crate::fluid::stepper::{FlowConfig, ViscousScheme};
 use crate::grid::Grid;
 use crate::interface::shapes::Smoothing;
 use crate::interface::{
-    advect::AdvectionParams, advect::Carried, advect::InterfaceTransport, geometry::NormalScheme,
+    advect::{AdvectionParams, Carried, InterfaceTransport},
+    geometry::NormalScheme,
 };
 use crate::membrane::strain::StrainAdvection;
 use crate::{Error, Real, Result};

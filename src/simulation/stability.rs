@@ -44,7 +44,10 @@
 //! [`StepReport`](super::StepReport) carries a
 //! [`StepWarning::DtAboveLimit`](super::StepWarning::DtAboveLimit) (the library never prints).
 
-use super::{BendingCoupling, MembraneCoupling, Simulation, effect::Effect, effect::Setup};
+use super::{
+    BendingCoupling, MembraneCoupling, Simulation,
+    effect::{Effect, Setup},
+};
 use crate::error::positive;
 use crate::{Error, Real, Result};
 

@@ -5,7 +5,9 @@
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::membrane::{
-    band::Band, extension::SurfaceExtension, stress::SurfaceKinematics, stress::surface_kinematics,
+    band::Band,
+    extension::SurfaceExtension,
+    stress::{SurfaceKinematics, surface_kinematics},
 };
 use crate::{Error, Real, Result};
 use rayon::prelude::*;

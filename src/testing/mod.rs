@@ -113,9 +113,9 @@ pub use strategies::{
 
 use crate::Error;
 use crate::membrane::law::{SurfaceLaw, check_stress_free, small_strain_moduli};
-use crate::membrane::{
-    stress::energy_density, stress::h_tensor, stress::jacobian, stress::principal_tensions, stress::stress,
-    stress::stress_and_jacobian, stress::stretching, stress::surface_kinematics, stress::tension_invariants,
+use crate::membrane::stress::{
+    energy_density, h_tensor, jacobian, principal_tensions, stress, stress_and_jacobian, stretching,
+    surface_kinematics, tension_invariants,
 };
 use crate::tensor::{
     Sym, ddot, mat_to_sym, matmul, project, projector, rotate, sym_mul_vec, sym_to_mat, transpose,
@@ -655,7 +655,7 @@ impl<'a, L: SurfaceLaw<f64> + ?Sized> Checker<'a, L> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::membrane::{law::NeoHookean, law::Skalak};
+    use crate::membrane::law::{NeoHookean, Skalak};
 
     /// The neo-Hookean law (2.5) with one derivative changed.
     struct Broken {
