@@ -1,7 +1,7 @@
 //! Capsules on boxes that follow them ([`CapsuleStorage::Boxed`]) against the same capsules on
 //! the whole grid: the same fields to the profile tail, the volume to round-off, a box that
 //! crosses the periodic seam, a box that leaves a wall, contact between boxes, bit-for-bit
-//! restart, and a capsule that outgrows its box.
+//! restart, and a capsule that stretches and grows its box.
 
 use eulermembrane::grid::{Boundary, Field, Grid};
 use eulermembrane::interface::shapes::Sphere;
@@ -9,7 +9,6 @@ use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{
     CapsuleStorage, Elasticity, Phase, Scene, Settings, Simulation, SurfaceLoad, Traction,
     contact::{Contact, min_gap_cells},
-    timestep::AdaptiveDt,
 };
 
 /// A neo-Hookean sphere of radius 0.25 (4 cells) carried along x across the periodic seam by a
@@ -153,13 +152,18 @@ fn a_boxed_run_restarts_bit_for_bit() {
     for _ in 0..20 {
         a.step(0.01).unwrap();
     }
+    restarts_bit_for_bit(&mut a, carried(CapsuleStorage::Boxed { room: 1.2 }, Traction::Smoothed), 20);
+}
+
+/// Restores a checkpoint of `a` into `b` (built from the same scene), runs both `steps` steps
+/// and checks that they agree bit for bit, their boxes included.
+fn restarts_bit_for_bit(a: &mut Simulation<f64>, mut b: Simulation<f64>, steps: usize) {
     let path = std::env::temp_dir().join(format!("eulermembrane_boxed_{}.ckpt", std::process::id()));
     a.checkpoint(&path).unwrap();
-    let mut b = carried(CapsuleStorage::Boxed { room: 1.2 }, Traction::Smoothed);
     b.restore(&path).unwrap();
     std::fs::remove_file(&path).ok();
     assert_eq!(a.window(0).unwrap(), b.window(0).unwrap());
-    for _ in 0..20 {
+    for _ in 0..steps {
         a.step(0.01).unwrap();
         b.step(0.01).unwrap();
     }
@@ -169,13 +173,13 @@ fn a_boxed_run_restarts_bit_for_bit() {
     assert_eq!(a.velocity(), b.velocity());
 }
 
-#[test]
-fn a_capsule_that_outgrows_its_box_fails_the_step_by_name() {
-    // A soft capsule stretched by a shear between walls (z) grows out of a box of room 1.
+/// A soft capsule of radius 4 cells stretched along x by a shear between walls (z), on the
+/// whole grid or on a box.
+fn stretched(storage: CapsuleStorage) -> Simulation<f64> {
     let mut bc = [[Boundary::Periodic; 2]; 3];
     bc[2] = [Boundary::Wall { velocity: [-1.5, 0.0, 0.0] }, Boundary::Wall { velocity: [1.5, 0.0, 0.0] }];
     let grid = Grid::new([48, 16, 24], [0.0; 3], [3.0, 1.0, 1.5], bc).unwrap();
-    let settings = Settings { storage: CapsuleStorage::Boxed { room: 1.0 }, ..Settings::default() };
+    let settings = Settings { storage, ..Settings::default() };
     let mut sim = Scene::new(grid, Phase::new(1.0, 1.0).unwrap())
         .capsule(Sphere::new([1.5, 0.5, 0.75], 0.25).unwrap())
         .elasticity(NeoHookean::new(0.02).unwrap())
@@ -183,17 +187,54 @@ fn a_capsule_that_outgrows_its_box_fails_the_step_by_name() {
         .build()
         .unwrap();
     sim.set_velocity(|x| [2.0 * (x[2] - 0.75), 0.0, 0.0]).unwrap();
-    let before = sim.steps();
-    let err = (0..300).find_map(|_| sim.step(0.01).err()).expect("the capsule outgrows its box");
-    let text = format!("{err} {err:?}");
-    assert!(text.contains("CapsuleStorage::Boxed room") && text.contains("change that parameter"), "{text}");
-    assert!(sim.steps() > before + 10, "failed at once: {text}");
-    // Adaptive steps do not retry it smaller: no step size meets it.
-    let mut control = AdaptiveDt::new(0.01).unwrap();
-    let (t, steps) = (sim.time(), sim.steps());
-    let err = sim.run_with(3.0, &mut control, &mut []).unwrap_err();
-    assert!(format!("{err}").contains("CapsuleStorage::Boxed room"), "{err}");
-    assert_eq!((sim.time(), sim.steps()), (t, steps), "the failed step left the state as it was");
+    sim
+}
+
+#[test]
+fn a_capsule_that_stretches_grows_its_box_and_follows_the_whole_grid_capsule() {
+    // Room 1: the box starts about 9 cells from the band along x and grows as the capsule
+    // stretches, to the whole axis (a box that did not grow failed this run).
+    let mut whole = stretched(CapsuleStorage::Whole);
+    let mut boxed = stretched(CapsuleStorage::Boxed { room: 1.0 });
+    let w0 = boxed.window(0).unwrap().clone();
+    assert_eq!(w0.rings(), [true, false, false], "{w0:?}");
+    let v0 = boxed.volume(0).unwrap();
+    let mut sizes = vec![w0.size()[0]];
+    for _ in 0..150 {
+        whole.step(0.01).unwrap();
+        boxed.step(0.01).unwrap();
+        let n = boxed.window(0).unwrap().size()[0];
+        if n != *sizes.last().unwrap() {
+            sizes.push(n);
+        }
+    }
+    assert!(sizes.len() >= 2 && sizes.windows(2).all(|p| p[1] > p[0]), "box sizes along x: {sizes:?}");
+    let g = whole.grid();
+    let (a, b) = (phi_on_grid(&boxed), whole.phi(0).unwrap().clone());
+    let diff = |at: &dyn Fn(f64) -> bool| {
+        g.cells()
+            .map(|(i, j, k)| g.idx_u(i, j, k))
+            .filter(|&idx| at(b.values()[idx]))
+            .map(|idx| (a.values()[idx] - b.values()[idx]).abs())
+            .fold(0.0, f64::max)
+    };
+    let (interface, everywhere) = (diff(&|p| p > 1e-3), diff(&|_| true));
+    let (ea, eb) = (whole.elastic_energy(), boxed.elastic_energy());
+    let dv = max_difference(&whole.velocity().c[0], &boxed.velocity().c[0], g);
+    let drift = boxed.volume(0).unwrap() / v0 - 1.0;
+    eprintln!(
+        "box sizes {sizes:?}: phi {interface:e} ({everywhere:e} with the tail), energy {:e}, velocity {dv:e}, volume {drift:e}",
+        (ea - eb).abs() / ea
+    );
+    // Measured: 8.1e-7 where phi > 1e-3; 3.0e-6 in the tail that the walls' fast flow carries
+    // along x to the box's ends (phi ~ 1e-6 there); energy 1.4e-7; velocity 3.3e-8; volume 3e-13.
+    assert!(interface < 2e-6, "max |phi_boxed - phi_whole| where phi > 1e-3: {interface:e}");
+    assert!(everywhere < 1e-5, "max |phi_boxed - phi_whole|: {everywhere:e}");
+    assert!(ea > 0.0 && (ea - eb).abs() < 1e-6 * ea, "elastic energy {ea:e} vs {eb:e}");
+    assert!(dv < 1e-7, "velocities differ by {dv:e}");
+    assert!(drift.abs() < 1e-10, "volume drift {drift:e}");
+    // A grown box restarts bit for bit (the checkpoint records its size).
+    restarts_bit_for_bit(&mut boxed, stretched(CapsuleStorage::Boxed { room: 1.0 }), 10);
 }
 
 /// Two capsules of radius 5 cells pushed together across the periodic seam (x = 0) by opposite

@@ -423,6 +423,114 @@ impl Window {
         Ok(())
     }
 
+    /// The box grown by `lo[d]` cells below and `hi[d]` cells above along each ring or segment
+    /// axis `d` (whole axes stay whole), holding this box's cells where they were: a ring or
+    /// segment that would reach the grid's length, and a segment that would reach past a wall,
+    /// becomes the whole axis (as [`around`](Self::around) makes it). Move the box's values
+    /// into the grown box's grid with [`transfer_slice`](Self::transfer_slice).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `grid` for a grid the window was not made on.
+    pub fn grown<T: Real>(&self, grid: &Grid<T>, lo: [usize; 3], hi: [usize; 3]) -> Result<Self> {
+        if grid.n() != self.n {
+            return Err(Error::invalid(
+                "grid",
+                format!("{:?} cells, the window's grid has {:?}", grid.n(), self.n),
+                "the grid the window was made on",
+            ));
+        }
+        let mut first = self.first;
+        let mut size = self.size;
+        for d in 0..3 {
+            if !self.movable()[d] {
+                continue;
+            }
+            first[d] -= lo[d] as isize;
+            size[d] += lo[d] + hi[d];
+            if self.segment[d] && (first[d] < 0 || first[d] + size[d] as isize > self.n[d] as isize) {
+                (first[d], size[d]) = (0, self.n[d]);
+            }
+        }
+        Self::new(grid, first, size)
+    }
+
+    /// The storage index on `to_grid` (the grid of window `to`) of the storage index `idx` of an
+    /// interior cell of this box's grid `grid`: the same cell of the whole grid (`None` where
+    /// `to` does not hold it, or `idx` is not an interior cell).
+    pub fn transfer_index<T: Real>(
+        &self,
+        grid: &Grid<T>,
+        to: &Window,
+        to_grid: &Grid<T>,
+        idx: usize,
+    ) -> Option<usize> {
+        let (dims, to_dims) = (grid.dims(), to_grid.dims());
+        let s = [idx % dims[0], (idx / dims[0]) % dims[1], idx / (dims[0] * dims[1])];
+        let mut t = [0usize; 3];
+        for d in 0..3 {
+            let b = s[d] as isize - GHOST as isize;
+            if b < 0 || b >= self.size[d] as isize {
+                return None;
+            }
+            // The whole grid's cell, unwrapped on a ring or segment.
+            let u = if self.movable()[d] { self.first[d] + b } else { b };
+            let n = self.n[d] as isize;
+            let c = if to.movable()[d] { (u - to.first[d]).rem_euclid(n) } else { u.rem_euclid(n) };
+            if c >= to.size[d] as isize {
+                return None;
+            }
+            t[d] = c as usize + GHOST;
+        }
+        Some(t[0] + to_dims[0] * (t[1] + to_dims[1] * t[2]))
+    }
+
+    /// Copies per-cell storage `src` of this box's grid `grid` (`grid.len()` values, ghosts
+    /// included) into `dst` on the grid `to_grid` of window `to`, cell for cell of the whole
+    /// grid: every interior cell of this box that `to` holds; the rest of `dst` is left as it
+    /// was (e.g. a field, or a transport's time history, moved into a grown box,
+    /// [`InterfaceTransport::regrow`](crate::interface::advect::InterfaceTransport::regrow)).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `src` or `dst` for storage of another length than its
+    /// grid's, or `to` for a window of another whole grid.
+    pub fn transfer_slice<T: Real, V: Copy>(
+        &self,
+        grid: &Grid<T>,
+        src: &[V],
+        to: &Window,
+        to_grid: &Grid<T>,
+        dst: &mut [V],
+    ) -> Result<()> {
+        if to.n != self.n {
+            return Err(Error::invalid(
+                "to",
+                format!("a window of a {:?} grid", to.n),
+                "a window of the same grid",
+            ));
+        }
+        if src.len() != grid.len() {
+            return Err(Error::invalid(
+                "src",
+                format!("{} values", src.len()),
+                "one value per storage cell of its grid",
+            ));
+        }
+        if dst.len() != to_grid.len() {
+            return Err(Error::invalid(
+                "dst",
+                format!("{} values", dst.len()),
+                "one value per storage cell of its grid",
+            ));
+        }
+        for (i, j, k) in grid.cells() {
+            let idx = grid.idx_u(i, j, k);
+            if let Some(t) = self.transfer_index(grid, to, to_grid, idx) {
+                dst[t] = src[idx];
+            }
+        }
+        Ok(())
+    }
+
     /// The part of a move by `by` cells along `axis` that keeps a segment between the walls
     /// (`by` itself on a ring, 0 on a whole axis).
     pub fn clamp_shift(&self, axis: usize, by: isize) -> isize {
@@ -656,6 +764,40 @@ mod tests {
             filled.fill_ghosts(&moved);
             assert_eq!(filled, b);
         }
+    }
+
+    #[test]
+    fn a_grown_box_holds_the_cells_of_the_old_one_where_they_were() {
+        let g = walled();
+        let f = field(&g);
+        // A ring along x across the seam, a ring along y, a segment along z.
+        let w = Window::new(&g, [-3, 2, 2], [8, 6, 5]).unwrap();
+        let cases = [
+            ([2, 1, 1], [3, 0, 1], [13, 7, 7], [true, true, true]),
+            // x reaches the grid's 16 cells, z would pass the lower wall: both whole.
+            ([5, 0, 3], [3, 0, 0], [16, 6, 10], [false, true, false]),
+        ];
+        for (lo, hi, size, movable) in cases {
+            let to = w.grown(&g, lo, hi).unwrap();
+            assert_eq!((to.size(), to.movable()), (size, movable));
+            let (bg, tg) = (w.grid(&g), to.grid(&g));
+            let (mut b, mut t) = (Field::zeros(&bg), Field::zeros(&tg));
+            w.gather(&g, &f, &bg, &mut b).unwrap();
+            w.transfer_slice(&bg, &b.data, &to, &tg, &mut t.data).unwrap();
+            // Moved into the grown box, then added back to the grid: the old box's cells, with
+            // their grid values, and nothing else.
+            let (mut from_old, mut from_new) = (Field::zeros(&g), Field::zeros(&g));
+            w.add_to(&bg, &b, &g, &mut from_old).unwrap();
+            to.add_to(&tg, &t, &g, &mut from_new).unwrap();
+            assert_eq!(from_old, from_new);
+            assert_eq!(from_old.data.iter().filter(|&&x| x != 0.0).count(), w.cell_count());
+            // Every interior cell of the old box has its place in the new one.
+            for (i, j, k) in bg.cells() {
+                assert!(w.transfer_index(&bg, &to, &tg, bg.idx_u(i, j, k)).is_some());
+            }
+            assert_eq!(w.transfer_index(&bg, &to, &tg, 0), None, "a ghost cell");
+        }
+        assert!(w.transfer_slice(&w.grid(&g), &[0.0; 3], &w, &w.grid(&g), &mut [0.0; 3]).is_err());
     }
 
     #[test]

@@ -125,14 +125,15 @@ pub enum Carried {
 /// holds one capsule's time history. The simulation proposes a step with
 /// [`advance`](Self::advance) and, when the step is discarded, calls [`undo`](Self::undo);
 /// checkpoints save and restore the history; a capsule's box that moves with it
-/// ([`CapsuleStorage::Boxed`](crate::simulation::CapsuleStorage)) calls [`roll`](Self::roll).
-/// A transport without a time history keeps the default `undo`, `checkpoint` and `restore`,
-/// which do nothing, and returns `Ok(())` from `roll`.
+/// ([`CapsuleStorage::Boxed`](crate::simulation::CapsuleStorage)) calls [`roll`](Self::roll),
+/// and [`regrow`](Self::regrow) when the box grows. A transport without a time history keeps
+/// the default `undo`, `checkpoint` and `restore`, which do nothing, and returns `Ok(())` from
+/// `roll` and `regrow`.
 ///
 /// A user transport that wraps the default one and counts its steps:
 ///
 /// ```
-/// use eulermembrane::grid::{Field, Grid, VectorField};
+/// use eulermembrane::grid::{Field, Grid, VectorField, Window};
 /// use eulermembrane::interface::{advect::AdvectionInfo, advect::AdvectionParams, advect::Advector, advect::InterfaceTransport};
 /// use eulermembrane::io::checkpoint::{CheckpointReader, CheckpointWriter};
 /// use eulermembrane::prelude::*;
@@ -158,6 +159,15 @@ pub enum Carried {
 ///     }
 ///     fn roll(&mut self, grid: &Grid<f64>, axis: usize, by: isize) -> eulermembrane::Result<()> {
 ///         self.0.roll(grid, axis, by)
+///     }
+///     fn regrow(
+///         &mut self,
+///         from: &Window,
+///         from_grid: &Grid<f64>,
+///         to: &Window,
+///         to_grid: &Grid<f64>,
+///     ) -> eulermembrane::Result<()> {
+///         self.0.regrow(from, from_grid, to, to_grid)
 ///     }
 ///     fn checkpoint(&self, w: &mut CheckpointWriter, prefix: &str) {
 ///         self.0.checkpoint(w, prefix)
@@ -221,6 +231,34 @@ pub trait InterfaceTransport<T: Real>: Send + Sync {
             detail: format!(
                 "the transport {} does not move with a capsule's box (implement roll, or keep the \
                  capsules on the whole grid)",
+                self.name()
+            ),
+        })
+    }
+
+    /// Moves the transport's own state into a grown box: the capsule's box `from` (grid
+    /// `from_grid`) became `to` (grid `to_grid`), which holds every cell of `from`
+    /// ([`Window::grown`](crate::grid::Window::grown)), and the capsule's fields were moved cell
+    /// for cell of the whole grid ([`Window::transfer_slice`](crate::grid::Window::transfer_slice));
+    /// reallocate every per-cell array on `to_grid` and move the time history the same way.
+    /// Called between steps only.
+    ///
+    /// # Errors
+    /// The default refuses ([`Error::Unsupported`]), as [`roll`](Self::roll) does; the box then
+    /// keeps its size and the step reports the error.
+    fn regrow(
+        &mut self,
+        from: &crate::grid::Window,
+        from_grid: &Grid<T>,
+        to: &crate::grid::Window,
+        to_grid: &Grid<T>,
+    ) -> Result<()> {
+        let _ = (from, from_grid, to, to_grid);
+        Err(Error::Unsupported {
+            component: "InterfaceTransport::regrow",
+            detail: format!(
+                "the transport {} does not move into a grown box (implement regrow, or give the \
+                 capsules more room)",
                 self.name()
             ),
         })
@@ -594,6 +632,42 @@ impl<T: Real> InterfaceTransport<T> for Advector<T> {
         let mut line = Vec::new();
         crate::grid::Window::roll_slice(grid, &mut self.rhs_phi, axis, by, &mut line);
         crate::grid::Window::roll_slice(grid, &mut self.rhs_kappa, axis, by, &mut line);
+        Ok(())
+    }
+
+    /// Reallocates the work arrays on the grown box's grid and moves the AB2 right-hand sides
+    /// into it.
+    fn regrow(
+        &mut self,
+        from: &crate::grid::Window,
+        from_grid: &Grid<T>,
+        to: &crate::grid::Window,
+        to_grid: &Grid<T>,
+    ) -> Result<()> {
+        if from_grid.dims() != self.dims {
+            return Err(Error::invalid(
+                "grid",
+                format!("{:?} cells", from_grid.n()),
+                "the grid of Advector::new",
+            ));
+        }
+        let n = to_grid.len();
+        let k = if self.curvature { n } else { 0 };
+        let mut rhs_phi = vec![T::zero(); n];
+        let mut rhs_kappa = vec![T::zero(); k];
+        from.transfer_slice(from_grid, &self.rhs_phi, to, to_grid, &mut rhs_phi)?;
+        if self.curvature {
+            from.transfer_slice(from_grid, &self.rhs_kappa, to, to_grid, &mut rhs_kappa)?;
+        }
+        self.dims = to_grid.dims();
+        self.slot = vec![NONE; n];
+        self.band_idx.clear();
+        self.band.clear();
+        self.next_phi = vec![T::zero(); n];
+        self.next_kappa = vec![T::zero(); k];
+        self.rhs_phi = rhs_phi;
+        self.rhs_kappa = rhs_kappa;
+        self.saved = (None, Vec::new(), Vec::new());
         Ok(())
     }
 

@@ -369,6 +369,36 @@ impl<T: Real> StrainTransport<T> {
         let _ = self.restore_history(&cells, &tend);
     }
 
+    /// Moves the transport onto the grid `to_grid` of a grown capsule box `to`, from the box
+    /// `from` of its grid (see [`Window::grown`](crate::grid::Window::grown)): the AB2 history
+    /// cell for cell of the whole grid.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `grid` if `from_grid` is not this transport's grid, or
+    /// as [`new`](Self::new) for `to_grid`; the transport is then unchanged.
+    pub fn regrow(
+        &mut self,
+        from: &crate::grid::Window,
+        from_grid: &Grid<T>,
+        to: &crate::grid::Window,
+        to_grid: &Grid<T>,
+    ) -> Result<()> {
+        if from_grid.dims() != self.grid.dims() {
+            return Err(Error::invalid("grid", format!("{:?} cells", from_grid.n()), "the transport's grid"));
+        }
+        let mut moved = Self::new(to_grid)?.with_advection(self.scheme).with_tangent_frame(self.frame);
+        if let Some((cells, tend)) = self.history() {
+            let (cells, tend): (Vec<usize>, Vec<Sym<T>>) = cells
+                .iter()
+                .zip(tend)
+                .filter_map(|(&idx, t)| Some((from.transfer_index(from_grid, to, to_grid, idx)?, *t)))
+                .unzip();
+            moved.restore_history(&cells, &tend)?;
+        }
+        *self = moved;
+        Ok(())
+    }
+
     /// The AB2 history, for checkpoints: the storage indices of the cells with a stored
     /// advective tendency and those tendencies (`None` before the first step).
     pub fn history(&self) -> Option<(&[usize], &[Sym<T>])> {

@@ -99,6 +99,27 @@ fn box_fields<'a, T: Real>(
     s.get_or_insert_with(|| [VectorField::zeros(grid), VectorField::zeros(grid)])
 }
 
+/// The membrane velocity map of `traction` on `grid`, built on `level` (`None` for the
+/// smoothed traction).
+fn membrane_map<T: Real>(
+    grid: &Grid<T>,
+    traction: Traction,
+    settings: &Settings<T>,
+    level: &Level<T>,
+) -> Result<Option<SurfaceExtension<T>>> {
+    Ok(match traction {
+        Traction::Sharp | Traction::SharpResampled => {
+            let mut e = SurfaceExtension::new(grid, settings.advection.beta)?;
+            if traction == Traction::SharpResampled {
+                e = e.with_outer_layers();
+            }
+            e.rebuild(&level.band, &level.phi, &level.normal)?;
+            Some(e)
+        }
+        Traction::Smoothed => None,
+    })
+}
+
 /// One capsule of a [`Simulation`](super::Simulation).
 pub(crate) struct Capsule<T: Real> {
     /// Its box and the box's grid, where every field below lives.
@@ -204,17 +225,7 @@ impl<T: Real> Capsule<T> {
             ),
             false => None,
         };
-        let extension = match traction {
-            Traction::Sharp | Traction::SharpResampled => {
-                let mut e = SurfaceExtension::new(grid, settings.advection.beta)?;
-                if traction == Traction::SharpResampled {
-                    e = e.with_outer_layers();
-                }
-                e.rebuild(&cur.band, &cur.phi, &cur.normal)?;
-                Some(e)
-            }
-            Traction::Smoothed => None,
-        };
+        let extension = membrane_map(grid, traction, settings, &cur)?;
         let transport = make(grid, if curvature { Carried::PhiAndCurvature } else { Carried::Phi })?;
         let mut cap = Capsule { boxed, cur, next, gs, transport, strain, reference_target: None, extension };
         if settings.reference_area == ReferenceArea::Conserved {
@@ -391,6 +402,50 @@ impl<T: Real> Capsule<T> {
         if let Some(e) = self.extension.as_mut() {
             e.rebuild(&self.cur.band, &self.cur.phi, &self.cur.normal)?;
         }
+        Ok(())
+    }
+
+    /// Moves the capsule into the box `to` of the whole grid `whole`, grown from its own
+    /// ([`Window::grown`]): the state (`phi`, `kappa_R tilde`, `G_s`, the transports' histories)
+    /// cell for cell of the whole grid, the cells new to the box as a capsule built there would
+    /// have them (`phi` 0, `G_s` the projector), and the geometry, band and membrane map
+    /// derived anew. The transport first: one that refuses leaves everything as it was.
+    pub(crate) fn regrow(
+        &mut self,
+        whole: &Grid<T>,
+        to: Window,
+        settings: &Settings<T>,
+        normals: &mut dyn NormalEstimator<T>,
+    ) -> Result<()> {
+        let (from, from_grid) = (&self.boxed.window, &self.boxed.grid);
+        let to_grid = to.grid(whole);
+        self.transport.regrow(from, from_grid, &to, &to_grid)?;
+        let curvature = self.cur.kappa.is_some();
+        let mut cur = Level::zeros(&to_grid, curvature, settings.epsilon)?;
+        from.transfer_slice(from_grid, &self.cur.phi.data, &to, &to_grid, &mut cur.phi.data)?;
+        if let (Some(a), Some(b)) = (self.cur.kappa.as_ref(), cur.kappa.as_mut()) {
+            from.transfer_slice(from_grid, &a.data, &to, &to_grid, &mut b.data)?;
+        }
+        cur.derive(&to_grid, normals)?;
+        let gs = match self.gs.as_ref() {
+            Some(old) => {
+                let mut gs = SymField::zeros(&to_grid);
+                fill_projector(&to_grid, &cur.normal, &mut gs);
+                for (a, b) in old.c.iter().zip(gs.c.iter_mut()) {
+                    from.transfer_slice(from_grid, &a.data, &to, &to_grid, &mut b.data)?;
+                }
+                Some(gs)
+            }
+            None => None,
+        };
+        if let Some(s) = self.strain.as_mut() {
+            s.regrow(from, from_grid, &to, &to_grid)?;
+        }
+        self.extension = membrane_map(&to_grid, self.traction(), settings, &cur)?;
+        self.next = Level::zeros(&to_grid, curvature, settings.epsilon)?;
+        self.cur = cur;
+        self.gs = gs;
+        self.boxed = Boxed::new(whole, to);
         Ok(())
     }
 }

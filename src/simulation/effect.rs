@@ -260,6 +260,19 @@ pub trait Effect<T: Real>: Send + Sync {
         Ok(())
     }
 
+    /// Called between steps when capsule `c`'s box has grown
+    /// ([`CapsuleStorage::Boxed`](super::CapsuleStorage::Boxed)): its fields now live on
+    /// [`setup.capsule_grid(c)`](Setup::capsule_grid), where the effect's work arrays for that
+    /// capsule must be made anew. Default: [`attach`](Self::attach) again, which serves an
+    /// effect that allocates its work arrays there and keeps nothing from one step to the next.
+    ///
+    /// # Errors
+    /// As [`attach`](Self::attach); the step that grew the box then reports it.
+    fn box_resized(&mut self, c: usize, setup: &Setup<'_, T>) -> Result<()> {
+        let _ = c;
+        self.attach(setup)
+    }
+
     /// The largest stable `dt` this effect allows in this scene (`None`: no limit), finite and
     /// `> 0`: [`Scene::build`](super::Scene::build), every step and every [`AdaptiveDt`] step
     /// refuse any other value with an error naming `dt_limit` and this effect's
@@ -368,6 +381,9 @@ impl<T: Real> Effect<T> for Box<dyn Effect<T>> {
     }
     fn attach(&mut self, setup: &Setup<'_, T>) -> Result<()> {
         (**self).attach(setup)
+    }
+    fn box_resized(&mut self, c: usize, setup: &Setup<'_, T>) -> Result<()> {
+        (**self).box_resized(c, setup)
     }
     fn dt_limit(&self, setup: &Setup<'_, T>) -> Option<f64> {
         (**self).dt_limit(setup)

@@ -75,7 +75,7 @@ pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
 pub use scene::Scene;
 pub use settings::{
     BOX_MIN_ROOM, BendingCoupling, CapsuleStorage, GsTransport, MembraneCoupling, Phase, ReferenceArea,
-    Settings, Traction, TransportMaker, box_margin,
+    Settings, Traction, TransportMaker, box_grow_room, box_margin,
 };
 pub use view::{MembraneView, Needs};
 
@@ -240,8 +240,11 @@ impl<T: Real> Simulation<T> {
                 &make,
             )?;
             if !cap.boxed.window.is_whole() {
-                // A box moves with its capsule: its transport must move its history with it.
+                // A box moves and grows with its capsule: its transport must move its history
+                // with it.
                 cap.transport.roll(&cap.boxed.grid, 0, 0)?;
+                let (w, g) = (&cap.boxed.window, &cap.boxed.grid);
+                cap.transport.regrow(w, g, w, g)?;
             }
             check_wall_distance(&cap.boxed.grid, &cap.cur.phi, settings.smoothing.beta, c)?;
             check_extent(&cap.boxed.grid, &cap.cur.phi, shape.volume(), c)?;
@@ -484,7 +487,39 @@ impl<T: Real> Simulation<T> {
                 }
             }
         }
+        // ... and grows where the capsule has stretched towards its sides, so that the ends of
+        // its ring stay in the far field.
+        let grow_at = box_grow_room(self.settings.advection.beta.f64());
+        let target = box_margin(self.settings.advection.beta.f64()) + 2;
+        for c in 0..self.capsules.len() {
+            let cap = &mut self.capsules[c];
+            let (mut lo, mut hi) = ([0usize; 3], [0usize; 3]);
+            for (d, room) in cap.room(LevelChoice::Current).into_iter().enumerate() {
+                if let Some((a, b)) = room
+                    && a.min(b) < grow_at
+                {
+                    (lo[d], hi[d]) = (target.saturating_sub(a), target.saturating_sub(b));
+                }
+            }
+            if (lo, hi) == ([0; 3], [0; 3]) {
+                continue;
+            }
+            let to = cap.boxed.window.grown(&self.grid, lo, hi)?;
+            cap.regrow(&self.grid, to, &self.settings, self.normals.as_mut())?;
+            self.capsule_grids[c] = cap.boxed.grid.clone();
+            self.box_resized(&[c])?;
+        }
         Ok(p.report)
+    }
+
+    /// Tells every effect that the boxes of `capsules` have grown.
+    fn box_resized(&mut self, capsules: &[usize]) -> Result<()> {
+        let mut effects = std::mem::take(&mut self.effects);
+        let setup = self.setup();
+        let told =
+            effects.iter_mut().try_for_each(|e| capsules.iter().try_for_each(|&c| e.box_resized(c, &setup)));
+        self.effects = effects;
+        told
     }
 
     /// `dt Phi(v^{n+1/2})` and `dt f^n . v^{n+1/2}` of the prepared step (see

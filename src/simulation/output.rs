@@ -123,10 +123,10 @@ impl<T: Real> Simulation<T> {
         w.number("capsules", self.capsules.len() as f64);
         for (c, cap) in self.capsules.iter().enumerate() {
             let p = format!("capsule{c}.");
-            if !cap.boxed.window.is_whole() {
-                for (d, f) in cap.boxed.window.first().into_iter().enumerate() {
-                    w.number(&format!("{p}first{d}"), f as f64);
-                }
+            let win = &cap.boxed.window;
+            for (d, (f, n)) in win.first().into_iter().zip(win.size()).enumerate() {
+                w.number(&format!("{p}first{d}"), f as f64);
+                w.number(&format!("{p}size{d}"), n as f64);
             }
             w.array(&format!("{p}phi"), &cap.cur.phi.data);
             if let Some(k) = &cap.cur.kappa {
@@ -192,21 +192,26 @@ impl<T: Real> Simulation<T> {
         // Read everything first.
         let mut read = Vec::with_capacity(self.capsules.len());
         for (c, cap) in self.capsules.iter().enumerate() {
-            let g = &cap.boxed.grid;
-            let len = g.len();
-            let field = |name: &str| -> Result<Field<T>> { Ok(Field { data: r.array(name, len)? }) };
             let p = format!("capsule{c}.");
-            // Where its box was (a box follows its capsule).
-            let window = match cap.boxed.window.is_whole() {
-                true => cap.boxed.window.clone(),
-                false => {
-                    let mut first = [0isize; 3];
-                    for (d, f) in first.iter_mut().enumerate() {
-                        *f = r.number(&format!("{p}first{d}"))? as isize;
+            // Where its box was and how large (a box follows its capsule and grows with it;
+            // checkpoints written before boxes grew record no size: the scene's).
+            let window = match r.has(&format!("{p}first0")) {
+                false => cap.boxed.window.clone(),
+                true => {
+                    let (mut first, mut size) = ([0isize; 3], cap.boxed.window.size());
+                    for d in 0..3 {
+                        first[d] = r.number(&format!("{p}first{d}"))? as isize;
+                        let name = format!("{p}size{d}");
+                        if r.has(&name) {
+                            size[d] = r.number(&name)? as usize;
+                        }
                     }
-                    Window::new(&self.grid, first, cap.boxed.window.size())?
+                    Window::new(&self.grid, first, size)?
                 }
             };
+            let g = &window.grid(&self.grid);
+            let len = g.len();
+            let field = |name: &str| -> Result<Field<T>> { Ok(Field { data: r.array(name, len)? }) };
             let phi = field(&format!("{p}phi"))?;
             let kappa = match &cap.cur.kappa {
                 Some(_) => Some(field(&format!("{p}kappa"))?),
@@ -243,9 +248,15 @@ impl<T: Real> Simulation<T> {
         }
         // Then replace: the flow first (it validates the grid), then the capsules.
         self.flow.restore(&r, "flow.")?;
+        let mut resized = Vec::new();
         for (c, (cap, (window, phi, kappa, gs, strain, target))) in
             self.capsules.iter_mut().zip(read).enumerate()
         {
+            if window.size() != cap.boxed.window.size() {
+                // A box that grew in the run: the capsule's storage made there first.
+                cap.regrow(&self.grid, window.clone(), &self.settings, self.normals.as_mut())?;
+                resized.push(c);
+            }
             cap.boxed.grid = window.grid(&self.grid);
             cap.boxed.window = window;
             if target.is_some() {
@@ -263,6 +274,8 @@ impl<T: Real> Simulation<T> {
                 }
             }
         }
+        self.capsule_grids = self.capsules.iter().map(|c| c.boxed.grid.clone()).collect();
+        self.box_resized(&resized)?;
         if let Some(v) = self.v_old.as_mut() {
             v.copy_from(self.flow.velocity());
         }

@@ -122,9 +122,12 @@ pub enum CapsuleStorage {
     /// cells on each side of its centre (the whole axis where that is as long as the grid, and
     /// along a wall axis where it would reach past a wall). The box moves with the capsule by
     /// whole cells after each step, so that its membrane stays centred (along a wall axis
-    /// between the walls); a capsule that grows out of it (its band within [`BOX_MIN_ROOM`]
-    /// cells of a side, a wall's included) fails the step with an error naming `room`. A shape
-    /// without a bounding radius keeps the whole grid.
+    /// between the walls), and grows by whole cells where the capsule has stretched towards
+    /// its sides (its band within [`box_grow_room`] cells of a side: the box then leaves
+    /// [`box_margin`] cells on both sides of that axis, the whole axis where that reaches the
+    /// grid's length or a wall). A step that carries the band within [`BOX_MIN_ROOM`] cells of
+    /// a side fails with an error naming `room`. A shape without a bounding radius keeps the
+    /// whole grid.
     Boxed {
         /// The box's half-width in bounding radii, beyond the margin (`>= 1`: room for the
         /// capsule to deform, e.g. 1.2 for red cells, 1.6 for a capsule at `D` = 0.3).
@@ -147,6 +150,15 @@ pub fn box_margin(beta: f64) -> usize {
 
 /// The fewest cells between a membrane band and its box's side (the reach of the stencils).
 pub const BOX_MIN_ROOM: usize = 4;
+
+/// The cells between a membrane band and a movable side of its box below which the box grows
+/// after a step, at profile sharpness `beta`: [`box_margin`] less 5 (7 cells at `beta = 1`; a
+/// box made with `room = 1` starts about 8.4 cells from its band). The box then grows on that
+/// axis to leave [`box_margin`] cells on both sides: the ends of its ring stay where the
+/// profile's tail is below about `1e-8`.
+pub fn box_grow_room(beta: f64) -> usize {
+    box_margin(beta).saturating_sub(3).max(BOX_MIN_ROOM + 1)
+}
 
 /// Which velocity carries and strains the membrane (`G_s`), and so where the in-plane membrane
 /// force acts (it is the adjoint of that velocity's strain rate).
