@@ -24,7 +24,7 @@
 //! `RESULT phi=... phi_target=... ca=... n=... cells_per_radius=... capsules=... mu_eff_wall=...
 //! mu_eff_wall_std=... mu_eff_stresslet=... n1=... n2=... d_mean=... incl_deg=... mu_dilute_rigid=...
 //! min_gap_cells=... vol_drift_max=... steps=... wall_s=... t_end=... average_from=... failed_at=...
-//! traction=... contact=... seed=... box=... storage=...`: the viscosities, `n1`, `n2`, `d_mean` and
+//! traction=... contact=... seed=... placement=... box=... storage=...`: the viscosities, `n1`, `n2`, `d_mean` and
 //! `incl_deg` averaged over the samples with `t >= --average-from`; `mu_eff_wall_std` the standard
 //! deviation of the wall estimate over them; `min_gap_cells` the smallest gap over every step;
 //! `failed_at` the time of a step that failed (`none`: the run reached `--t-end`).
@@ -41,7 +41,10 @@
 //! in cells), `--wall-distance` (5: the smallest distance from a surface to a wall at the start,
 //! in cells; at least 4.5, since a membrane band within two cells of a wall stops the run),
 //! `--contact` (50; 0 for none), `--contact-range` (2 cells), `--cfl` (0.3), `--max-dt` (0.05),
-//! `--sample-every` (0.05), `--room R` (each capsule on a box that follows it,
+//! `--sample-every` (0.05), `--shake S` (0: random sequential addition; `S > 0`: the capsules
+//! on a lattice shaken by `S` sweeps of hard-sphere Monte Carlo moves,
+//! `placement::Method::ShakenLattice`, for fractions sequential addition does not reach),
+//! `--room R` (each capsule on a box that follows it,
 //! `CapsuleStorage::Boxed { room: R }`; 0, the default, keeps every capsule on the whole grid),
 //! `--traction sharp|smoothed|sharp-resampled` (`Elasticity::traction`, default `sharp`,
 //! as `shear_capsule`), `--vtk-every` (1, time units; 0 for none), `--out DIR`
@@ -64,7 +67,7 @@ use eulermembrane::diagnostics::suspension::{
     ShearFrame, capsule_shapes, couette_shear_rate, particle_stress, wall_shear_stress,
 };
 use eulermembrane::grid::{Boundary, Field, Grid, VectorField};
-use eulermembrane::interface::placement::{Domain, Placed, Placement, Prototype, Target};
+use eulermembrane::interface::placement::{Domain, Method, Placed, Placement, Prototype, Target};
 use eulermembrane::io::vtk::PvdSeries;
 use eulermembrane::membrane::law::NeoHookean;
 use eulermembrane::simulation::{
@@ -108,6 +111,7 @@ struct Config {
     vtk_every: f64,
     traction: Traction,
     storage: CapsuleStorage,
+    method: Method,
 }
 
 /// `Err` with `msg` unless `ok`.
@@ -151,6 +155,10 @@ impl Config {
             storage: match args.get("room", 0.0) {
                 r if r > 0.0 => CapsuleStorage::Boxed { room: r },
                 _ => CapsuleStorage::Whole,
+            },
+            method: match args.get("shake", 0) {
+                0 => Method::SequentialAddition,
+                sweeps => Method::ShakenLattice { sweeps },
             },
         };
         check(n >= 16 && n.is_multiple_of(2), || format!("--n {n}: an even number of cells >= 16"))?;
@@ -240,14 +248,15 @@ fn grid(cfg: &Config) -> BoxResult<Grid<f64>> {
     Ok(Grid::new(cells, half.map(|x| -x), half, bc)?)
 }
 
-/// The capsules' places: random sequential addition at the volume fraction, a gap and a wall
-/// distance in cells.
+/// The capsules' places at the volume fraction, a gap and a wall distance in cells: random
+/// sequential addition, or a shaken lattice (`--shake`).
 fn place(cfg: &Config, grid: &Grid<f64>) -> BoxResult<Placed> {
     let h = cfg.h();
     Placement::new(Domain::from_grid(grid), Prototype::sphere(RADIUS)?, Target::VolumeFraction(cfg.phi))
         .gap(cfg.gap_cells * h)
         .wall_distance(cfg.wall_cells * h)
         .seed(cfg.seed)
+        .method(cfg.method)
         .place()
         .map_err(|e| {
             format!(
@@ -538,6 +547,13 @@ fn run() -> BoxResult<()> {
         ("traction", cfg.traction.name().to_string()),
         ("contact", cfg.contact.to_string()),
         ("seed", cfg.seed.to_string()),
+        (
+            "placement",
+            match cfg.method {
+                Method::ShakenLattice { sweeps } => format!("shaken_{sweeps}"),
+                Method::SequentialAddition => "sequential".into(),
+            },
+        ),
         ("box", cfg.box_radii.map(|l| l.to_string()).join(",")),
         (
             "storage",
