@@ -44,6 +44,11 @@
 //! `--sample-every` (0.05), `--shake S` (0: random sequential addition; `S > 0`: the capsules
 //! on a lattice shaken by `S` sweeps of hard-sphere Monte Carlo moves,
 //! `placement::Method::ShakenLattice`, for fractions sequential addition does not reach),
+//! `--checkpoint-every T` (0: none; the whole state to `checkpoint.bin` in `--out` every `T`
+//! time units, the history flushed with it), `--restart FILE` (continues a run from such a file
+//! with the same flags and `--out`: the history up to the checkpoint's time is kept, the steps
+//! after it are chosen anew, so the run is not bit for bit the uninterrupted one; the smallest
+//! gap before the restart is that of the samples),
 //! `--room R` (each capsule on a box that follows it,
 //! `CapsuleStorage::Boxed { room: R }`; 0, the default, keeps every capsule on the whole grid),
 //! `--traction sharp|smoothed|sharp-resampled` (`Elasticity::traction`, default `sharp`,
@@ -75,7 +80,7 @@ use eulermembrane::simulation::{
     contact::{Contact, min_gap_cells},
     timestep::{AdaptiveDt, TimeStepping},
 };
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The capsule radius (the unit of length).
@@ -112,6 +117,10 @@ struct Config {
     traction: Traction,
     storage: CapsuleStorage,
     method: Method,
+    /// Time between checkpoints (0: none).
+    checkpoint_every: f64,
+    /// The checkpoint a run continues from.
+    restart: Option<PathBuf>,
 }
 
 /// `Err` with `msg` unless `ok`.
@@ -160,6 +169,8 @@ impl Config {
                 0 => Method::SequentialAddition,
                 sweeps => Method::ShakenLattice { sweeps },
             },
+            checkpoint_every: args.get("checkpoint-every", 0.0),
+            restart: args.opt::<String>("restart").map(PathBuf::from),
         };
         check(n >= 16 && n.is_multiple_of(2), || format!("--n {n}: an even number of cells >= 16"))?;
         check(box_radii.iter().all(|l| l.is_finite() && *l > 0.0), || {
@@ -344,6 +355,28 @@ const COLUMNS: [&str; 17] = [
 ];
 
 impl Sample {
+    /// The sample of a row of `history.csv` (as [`row`](Self::row) wrote it).
+    fn from_row(r: &[f64]) -> Self {
+        Sample {
+            t: r[0],
+            steps: r[1] as usize,
+            dt: r[2],
+            mu_wall: r[3],
+            mu_wall_lower: r[4],
+            mu_wall_upper: r[5],
+            mu_stresslet: r[6],
+            n1: r[7],
+            n2: r[8],
+            d_mean: r[9],
+            d_max: r[10],
+            incl_mean_deg: r[11],
+            min_gap_cells: r[12],
+            vol_drift_max: r[13],
+            net_force: r[14],
+            shared_faces: r[15] as usize,
+        }
+    }
+
     fn row(&self, capsules: usize) -> [f64; 17] {
         [
             self.t,
@@ -581,15 +614,47 @@ struct Outcome {
 
 /// Runs `sim` to `--t-end`: samples, progress lines, the history, the ParaView series.
 fn simulate(cfg: &Config, sim: &mut Simulation<f64>, out: &Path) -> BoxResult<Outcome> {
-    let mut history = CsvWriter::create(out.join("history.csv"), &COLUMNS)?;
     let k = sim.capsule_count();
     let mut probe = Probe::new(sim)?;
+    // A restarted run continues the state of its checkpoint and the history before it.
+    let mut samples = Vec::new();
+    if let Some(file) = &cfg.restart {
+        sim.restore(file)?;
+        let table = common::csv::read_columns(out.join("history.csv"))?;
+        let columns: Vec<&[f64]> = COLUMNS.iter().filter_map(|c| table.column(c)).collect();
+        if columns.len() != COLUMNS.len() {
+            return Err(format!(
+                "--restart: {} lacks columns of this example",
+                out.join("history.csv").display()
+            )
+            .into());
+        }
+        let row = |i: usize| columns.iter().map(|c| c[i]).collect::<Vec<f64>>();
+        samples =
+            (0..table.rows()).map(|i| Sample::from_row(&row(i))).filter(|x| x.t <= sim.time()).collect();
+        eprintln!(
+            "  restarted from {} at t = {:.4} ({} samples kept)",
+            file.display(),
+            sim.time(),
+            samples.len()
+        );
+    }
+    let mut history = CsvWriter::create(out.join("history.csv"), &COLUMNS)?;
+    for x in &samples {
+        history.row(&x.row(k))?;
+    }
+    let checkpoint = out.join("checkpoint.bin");
+    let mut next_checkpoint = sim.time() + cfg.checkpoint_every;
     let max_dt = cfg.step_limit();
     let mut stepping = AdaptiveDt::new(max_dt)?.cfl(cfg.cfl)?;
     let gap_now = |sim: &Simulation<f64>| min_gap_cells(sim).unwrap_or(f64::INFINITY);
-    let mut min_gap = gap_now(sim);
-    let (mut pvd, mut next_vtk, mut next_sample) = (PvdSeries::new(), 0.0, 0.0);
-    let (mut samples, mut s, mut dt, mut retries) = (Vec::new(), 0usize, 0.0, 0usize);
+    let mut min_gap = samples.iter().map(|x: &Sample| x.min_gap_cells).fold(gap_now(sim), f64::min);
+    let t0 = sim.time();
+    let after = |every: f64| if t0 > 0.0 && every > 0.0 { ((t0 / every).floor() + 1.0) * every } else { 0.0 };
+    let (mut pvd, mut next_vtk, mut next_sample) =
+        (PvdSeries::new(), after(cfg.vtk_every), after(cfg.sample_every));
+    let first = samples.last().map_or(0, |x: &Sample| x.steps);
+    let (mut s, mut dt, mut retries) = (first, 0.0, 0usize);
     // The last step's predictor iterations and max|v| (from its Courant number).
     let (mut iterations, mut vmax) = (0usize, 0.0f64);
     let h = cfg.h();
@@ -627,7 +692,7 @@ fn simulate(cfg: &Config, sim: &mut Simulation<f64>, out: &Path) -> BoxResult<Ou
                  (sampled at t={:.3}) iters={iterations} vmax={vmax:.2} retries={retries}",
                 last.mu_wall, last.mu_stresslet, last.d_mean, last.t
             );
-            common::progress_line(0, s, total, t, &clock, &extra);
+            common::progress_line(first, s, total, t, &clock, &extra);
             if let Some((at, w)) = warned.take() {
                 eprintln!("  warning (last at t={at:.4}): {w}");
             }
@@ -636,6 +701,11 @@ fn simulate(cfg: &Config, sim: &mut Simulation<f64>, out: &Path) -> BoxResult<Ou
         }
         if at_end {
             break;
+        }
+        if cfg.checkpoint_every > 0.0 && t >= next_checkpoint - 1e-9 {
+            sim.checkpoint(&checkpoint)?;
+            history.flush()?;
+            next_checkpoint += cfg.checkpoint_every;
         }
         match stepping.advance(sim, cfg.t_end) {
             Ok(Some(report)) => {
