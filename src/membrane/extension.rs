@@ -216,10 +216,7 @@ impl<T: Real> SurfaceExtension<T> {
                     let (Some(at), Some(surface)) = (Point::new(grid, &x), Point::new(grid, &xg)) else {
                         return;
                     };
-                    if (0..3).all(|d| {
-                        trilinear(grid, Some(d), &surface).is_some()
-                            && trilinear(grid, Some(d), &at).is_some()
-                    }) {
+                    if velocity_stencils(grid, &surface).is_some() && velocity_stencils(grid, &at).is_some() {
                         *row = Row { face: m, at, surface, n };
                     }
                 });
@@ -349,18 +346,22 @@ impl<T: Real> SurfaceExtension<T> {
 /// `v_c(x_Γ) − n_c n·(v(x_Γ) − v(x_f))` of one row (`v_c(x_f)` without a normal).
 #[inline]
 fn row_value<T: Real>(grid: &Grid<T>, v: &VectorField<T>, c: usize, r: &Row<T>) -> T {
-    let interp = |d: usize, x: &Point<T>| match trilinear(grid, Some(d), x) {
-        Some(s) => s.iter().fold(T::zero(), |acc, &(i, w)| acc + w * v.c[d].data[i]),
-        None => T::zero(),
-    };
     if r.n == [T::zero(); 3] {
         return v.c[c].data[r.face];
     }
-    let surface: [T; 3] = std::array::from_fn(|d| interp(d, &r.surface));
+    // A row with a normal has every stencil in range (see `rebuild`).
+    let (Some(at_surface), Some(at_face)) =
+        (velocity_stencils(grid, &r.surface), velocity_stencils(grid, &r.at))
+    else {
+        return T::zero();
+    };
+    let interp =
+        |d: usize, s: &[(usize, T); 8]| s.iter().fold(T::zero(), |acc, &(i, w)| acc + w * v.c[d].data[i]);
+    let surface: [T; 3] = std::array::from_fn(|d| interp(d, &at_surface[d]));
     let mut jump = T::zero();
     for d in 0..3 {
         // v_c at its own face is the stored value.
-        let here = if d == c { v.c[c].data[r.face] } else { interp(d, &r.at) };
+        let here = if d == c { v.c[c].data[r.face] } else { interp(d, &at_face[d]) };
         jump += r.n[d] * (surface[d] - here);
     }
     surface[c] - r.n[c] * jump
@@ -373,22 +374,75 @@ fn spread_row<T: Real>(grid: &Grid<T>, c: usize, r: &Row<T>, x: T, out: &mut Vec
         out.c[c].data[r.face] += x;
         return;
     }
+    // A row with a normal has every stencil in range (see `rebuild`).
+    let (Some(at_surface), Some(at_face)) =
+        (velocity_stencils(grid, &r.surface), velocity_stencils(grid, &r.at))
+    else {
+        return;
+    };
     for d in 0..3 {
         let to_surface = if d == c { T::one() } else { T::zero() } - r.n[c] * r.n[d];
         let to_face = r.n[c] * r.n[d];
-        if let Some(s) = trilinear(grid, Some(d), &r.surface) {
-            for (i, wi) in s {
-                out.c[d].data[i] += x * to_surface * wi;
-            }
+        for &(i, wi) in &at_surface[d] {
+            out.c[d].data[i] += x * to_surface * wi;
         }
         if d == c {
             out.c[c].data[r.face] += x * to_face;
-        } else if let Some(s) = trilinear(grid, Some(d), &r.at) {
-            for (i, wi) in s {
+        } else {
+            for &(i, wi) in &at_face[d] {
                 out.c[d].data[i] += x * to_face * wi;
             }
         }
     }
+}
+
+/// The storage offsets and weights of the two lattice planes around `p` along axis `a`, for
+/// values staggered half a cell lower along `a` (`staggered`: a velocity component `a`) or
+/// cell-centred (periodic axes wrapped to the interior; `None` if a wall axis would leave the
+/// stored range).
+#[inline]
+fn planes<T: Real>(grid: &Grid<T>, p: &Point<T>, a: usize, staggered: bool) -> Option<([usize; 2], [T; 2])> {
+    let na = grid.n()[a] as isize;
+    let sa = grid.strides()[a];
+    let g = GHOST as isize;
+    if na == 1 {
+        // A flat axis: one layer, no interpolation.
+        return Some(([g as usize * sa; 2], [T::one(), T::zero()]));
+    }
+    let half = T::lit(0.5);
+    let (i0, t) = match (staggered, p.t[a] < half) {
+        (false, _) => (p.base[a], p.t[a]),
+        (true, true) => (p.base[a], p.t[a] + half),
+        (true, false) => (p.base[a] + 1, p.t[a] - half),
+    };
+    let periodic = grid.is_periodic(a);
+    let wrap = |i: isize| -> Option<usize> {
+        let (i, ok) = match periodic {
+            true => {
+                let i = if i < 0 {
+                    i + na
+                } else if i >= na {
+                    i - na
+                } else {
+                    i
+                };
+                (i, (0..na).contains(&i))
+            }
+            false => (i, (-g..na + g).contains(&i)),
+        };
+        ok.then_some((i + g) as usize * sa)
+    };
+    Some(([wrap(i0)?, wrap(i0 + 1)?], [T::one() - t, t]))
+}
+
+/// The trilinear stencil of the planes `axes` (one pair per axis, from [`planes`]).
+#[inline]
+fn stencil<T: Real>(axes: [([usize; 2], [T; 2]); 3]) -> [(usize, T); 8] {
+    let [(o0, w0), (o1, w1), (o2, w2)] = axes;
+    std::array::from_fn(|k| {
+        let (i, j, l) = (k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        (o0[i] + o1[j] + o2[l], w0[i] * w1[j] * w2[l])
+    })
 }
 
 /// The trilinear stencil at the point `p` of the values of velocity component `d` (`Some`) or
@@ -396,51 +450,22 @@ fn spread_row<T: Real>(grid: &Grid<T>, c: usize, r: &Row<T>, x: T, out: &mut Vec
 /// axis would leave the stored range).
 #[inline]
 pub(super) fn trilinear<T: Real>(grid: &Grid<T>, d: Option<usize>, p: &Point<T>) -> Option<[(usize, T); 8]> {
-    let (n, st) = (grid.n(), grid.strides());
-    let half = T::lit(0.5);
-    let g = GHOST as isize;
-    // Per axis: the storage offsets and weights of the two lattice planes around p.
-    let mut off = [[0usize; 2]; 3];
-    let mut w = [[T::one(), T::zero()]; 3];
-    for a in 0..3 {
-        let na = n[a] as isize;
-        if na == 1 {
-            // A flat axis: one layer, no interpolation.
-            off[a] = [g as usize * st[a]; 2];
-            continue;
-        }
-        // Component d sits half a cell lower along d than the cell centres.
-        let (i0, t) = match (Some(a) == d, p.t[a] < half) {
-            (false, _) => (p.base[a], p.t[a]),
-            (true, true) => (p.base[a], p.t[a] + half),
-            (true, false) => (p.base[a] + 1, p.t[a] - half),
-        };
-        let periodic = grid.is_periodic(a);
-        let wrap = |i: isize| -> Option<usize> {
-            let (i, ok) = match periodic {
-                true => {
-                    let i = if i < 0 {
-                        i + na
-                    } else if i >= na {
-                        i - na
-                    } else {
-                        i
-                    };
-                    (i, (0..na).contains(&i))
-                }
-                false => (i, (-g..na + g).contains(&i)),
-            };
-            ok.then_some((i + g) as usize * st[a])
-        };
-        off[a] = [wrap(i0)?, wrap(i0 + 1)?];
-        w[a] = [T::one() - t, t];
-    }
-    let mut out = [(0usize, T::zero()); 8];
-    for (k, o) in out.iter_mut().enumerate() {
-        let (i, j, l) = (k & 1, (k >> 1) & 1, (k >> 2) & 1);
-        *o = (off[0][i] + off[1][j] + off[2][l], w[0][i] * w[1][j] * w[2][l]);
-    }
-    Some(out)
+    Some(stencil([
+        planes(grid, p, 0, d == Some(0))?,
+        planes(grid, p, 1, d == Some(1))?,
+        planes(grid, p, 2, d == Some(2))?,
+    ]))
+}
+
+/// The trilinear stencils at the point `p` of the three velocity components, from the planes
+/// of each axis computed once (cell-centred and staggered); `None` as [`trilinear`].
+#[inline]
+fn velocity_stencils<T: Real>(grid: &Grid<T>, p: &Point<T>) -> Option<[[(usize, T); 8]; 3]> {
+    let centred = [planes(grid, p, 0, false)?, planes(grid, p, 1, false)?, planes(grid, p, 2, false)?];
+    let staggered = [planes(grid, p, 0, true)?, planes(grid, p, 1, true)?, planes(grid, p, 2, true)?];
+    Some(std::array::from_fn(|d| {
+        stencil(std::array::from_fn(|a| if a == d { staggered[a] } else { centred[a] }))
+    }))
 }
 
 /// Appends the periodic ghost images `(m, ghost)` of the face of the cell with interior
