@@ -643,6 +643,8 @@ fn simulate(cfg: &Config, sim: &mut Simulation<f64>, out: &Path) -> BoxResult<Ou
     for x in &samples {
         history.row(&x.row(k))?;
     }
+    // On disk at once: a run stopped before its next checkpoint restarts from the same rows.
+    history.flush()?;
     let checkpoint = out.join("checkpoint.bin");
     let mut next_checkpoint = sim.time() + cfg.checkpoint_every;
     let max_dt = cfg.step_limit();
