@@ -34,70 +34,91 @@ pub(crate) struct Level<T> {
     pub(crate) band: Band<T>,
 }
 
+/// The two staggered fields a box's kernels work in (the velocities they read, the scratch of
+/// [`MembraneView::on_box`]), shared by every capsule of a simulation: the capsules' passes run
+/// one capsule at a time, so one pair, sized to the box in use, serves them all.
+pub(crate) type BoxScratch<T> = std::sync::Arc<std::sync::Mutex<Option<[VectorField<T>; 2]>>>;
+
 /// Where a capsule's fields live: its window of the whole grid and the window's own grid,
 /// with the box velocities gathered for its kernels (none on a whole window, whose kernels
 /// read the whole grid's fields themselves).
 pub(crate) struct Boxed<T: Real> {
     pub(crate) window: Window,
     pub(crate) grid: Grid<T>,
-    /// Two staggered fields on the box grid (allocated on first use, never on a whole window):
-    /// the velocities the capsule's kernels read, and the scratch of
-    /// [`MembraneView::on_box`] (its gathered input and its output), used at other times.
-    pub(crate) scratch: std::sync::Mutex<Option<[VectorField<T>; 2]>>,
+    /// The simulation's [`BoxScratch`] (never used on a whole window).
+    pub(crate) scratch: BoxScratch<T>,
 }
 
 impl<T: Real> Boxed<T> {
-    pub(crate) fn new(whole: &Grid<T>, window: Window) -> Self {
+    pub(crate) fn new(whole: &Grid<T>, window: Window, scratch: BoxScratch<T>) -> Self {
         let grid = window.grid(whole);
-        Boxed { window, grid, scratch: std::sync::Mutex::new(None) }
+        Boxed { window, grid, scratch }
     }
 
-    /// The staggered field `a` of the whole grid `whole` as the box sees it (see
-    /// [`velocities`](Self::velocities)).
-    pub(crate) fn velocity<'a>(
-        &'a mut self,
+    /// Runs `f` on the box grid and the staggered field `a` of the whole grid `whole` as the box
+    /// sees it (see [`with_velocities`](Self::with_velocities)).
+    pub(crate) fn with_velocity<R>(
+        &self,
         whole: &Grid<T>,
-        a: &'a VectorField<T>,
-    ) -> Result<(&'a Grid<T>, &'a VectorField<T>)> {
+        a: &VectorField<T>,
+        f: impl FnOnce(&Grid<T>, &VectorField<T>) -> Result<R>,
+    ) -> Result<R> {
         if self.window.is_whole() {
-            return Ok((&self.grid, a));
+            return f(&self.grid, a);
         }
-        let [ba, _] = box_fields(&self.grid, &mut self.scratch);
+        let mut guard = lock_scratch(&self.scratch)?;
+        let [ba, _] = box_fields(&self.grid, &mut guard);
         self.window.gather_vector(whole, a, &self.grid, ba)?;
-        Ok((&self.grid, ba))
+        f(&self.grid, ba)
     }
 
-    /// The staggered fields `a` and `b` of the whole grid `whole` as the box sees them: the
-    /// fields themselves on a whole window, else gathered into the box (ghosts of `a` and `b`
-    /// filled).
-    pub(crate) fn velocities<'a>(
-        &'a mut self,
+    /// Runs `f` on the box grid and the staggered fields `a` and `b` of the whole grid `whole`
+    /// as the box sees them: the fields themselves on a whole window, else gathered into the
+    /// box (ghosts of `a` and `b` filled).
+    pub(crate) fn with_velocities<R>(
+        &self,
         whole: &Grid<T>,
-        a: &'a VectorField<T>,
-        b: &'a VectorField<T>,
-    ) -> Result<(&'a Grid<T>, &'a VectorField<T>, &'a VectorField<T>)> {
+        a: &VectorField<T>,
+        b: &VectorField<T>,
+        f: impl FnOnce(&Grid<T>, &VectorField<T>, &VectorField<T>) -> Result<R>,
+    ) -> Result<R> {
         if self.window.is_whole() {
-            return Ok((&self.grid, a, b));
+            return f(&self.grid, a, b);
         }
-        let [ba, bb] = box_fields(&self.grid, &mut self.scratch);
+        let mut guard = lock_scratch(&self.scratch)?;
+        let [ba, bb] = box_fields(&self.grid, &mut guard);
         self.window.gather_vector(whole, a, &self.grid, ba)?;
         self.window.gather_vector(whole, b, &self.grid, bb)?;
-        Ok((&self.grid, ba, bb))
+        f(&self.grid, ba, bb)
     }
+}
+
+/// The lock of a [`BoxScratch`].
+pub(crate) fn lock_scratch<T: Real>(
+    scratch: &BoxScratch<T>,
+) -> Result<std::sync::MutexGuard<'_, Option<[VectorField<T>; 2]>>> {
+    scratch.lock().map_err(|_| crate::Error::Unsupported {
+        component: "capsule box scratch",
+        detail: "the box scratch was poisoned by a panic in another thread".into(),
+    })
+}
+
+/// The two staggered fields of a [`BoxScratch`], sized for the box grid `grid` (made on first
+/// use; their values are those of whichever box used them last).
+pub(crate) fn box_fields<'a, T: Real>(
+    grid: &Grid<T>,
+    slot: &'a mut Option<[VectorField<T>; 2]>,
+) -> &'a mut [VectorField<T>; 2] {
+    let fields = slot.get_or_insert_with(|| [VectorField::zeros(grid), VectorField::zeros(grid)]);
+    for f in fields.iter_mut().flat_map(|v| v.c.iter_mut()) {
+        f.data.resize(grid.len(), T::zero());
+    }
+    fields
 }
 
 /// The largest `phi` a move of a box along a wall axis may carry round to its other side (on a
 /// periodic axis the profile's tail moves with the fluid, and the margin keeps it within `1e-10`).
 const FAR_FIELD: f64 = 1e-8;
-
-/// The two staggered fields of a box's `scratch` on its grid `grid`, made on first use.
-fn box_fields<'a, T: Real>(
-    grid: &Grid<T>,
-    scratch: &'a mut std::sync::Mutex<Option<[VectorField<T>; 2]>>,
-) -> &'a mut [VectorField<T>; 2] {
-    let s = scratch.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner);
-    s.get_or_insert_with(|| [VectorField::zeros(grid), VectorField::zeros(grid)])
-}
 
 /// The membrane velocity map of `traction` on `grid`, built on `level` (`None` for the
 /// smoothed traction).
@@ -196,8 +217,9 @@ impl<T: Real> Capsule<T> {
         traction: Traction,
         normals: &mut dyn NormalEstimator<T>,
         make: &TransportMaker<T>,
+        scratch: BoxScratch<T>,
     ) -> Result<Self> {
-        let boxed = Boxed::new(whole, window);
+        let boxed = Boxed::new(whole, window, scratch);
         let grid = &boxed.grid;
         let (smoothing, epsilon) = (&settings.smoothing, settings.epsilon);
         let curvature = needs.curvature;
@@ -308,9 +330,11 @@ impl<T: Real> Capsule<T> {
         normals: &mut dyn NormalEstimator<T>,
     ) -> Result<usize> {
         self.next.copy_from(&self.cur);
-        let (grid, v) = self.boxed.velocity(whole, v)?;
-        let info = self.transport.advance(grid, v, dt, &mut self.next.phi, self.next.kappa.as_mut())?;
-        self.next.derive(grid, normals)?;
+        let (transport, next) = (&mut self.transport, &mut self.next);
+        let info = self.boxed.with_velocity(whole, v, |grid, v| {
+            transport.advance(grid, v, dt, &mut next.phi, next.kappa.as_mut())
+        })?;
+        self.next.derive(&self.boxed.grid, normals)?;
         if let Some(e) = self.extension.as_mut() {
             e.rebuild(&self.next.band, &self.next.phi, &self.next.normal)?;
         }
@@ -445,7 +469,7 @@ impl<T: Real> Capsule<T> {
         self.next = Level::zeros(&to_grid, curvature, settings.epsilon)?;
         self.cur = cur;
         self.gs = gs;
-        self.boxed = Boxed::new(whole, to);
+        self.boxed = Boxed::new(whole, to, self.boxed.scratch.clone());
         Ok(())
     }
 }

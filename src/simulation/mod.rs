@@ -91,7 +91,7 @@ use crate::interface::geometry::NormalEstimator;
 use crate::membrane::{band::Band, extension::SurfaceExtension};
 use crate::tensor::{project, projector};
 use crate::{Error, Real, Result};
-use capsule::Capsule;
+use capsule::{BoxScratch, Capsule};
 use effect::{Effect, EnergyRole, Setup, StepState};
 use effects::{EffectForcing, EffectImplicit};
 use scene::Strategies;
@@ -224,6 +224,7 @@ impl<T: Real> Simulation<T> {
     ) -> Result<Self> {
         let (mut normals, make) = strategies.interface(&grid, &settings);
         let mut capsules = Vec::with_capacity(shapes.len());
+        let scratch = BoxScratch::default();
         for (c, (shape, window, traction)) in shapes.into_iter().enumerate() {
             let needs = effects.iter().filter(|e| e.acts_on(c)).fold(Needs::NONE, |n, e| {
                 let m = e.needs();
@@ -238,6 +239,7 @@ impl<T: Real> Simulation<T> {
                 traction,
                 normals.as_mut(),
                 &make,
+                scratch.clone(),
             )?;
             if !cap.boxed.window.is_whole() {
                 // A box moves and grows with its capsule: its transport must move its history
@@ -418,15 +420,16 @@ impl<T: Real> Simulation<T> {
         for cap in self.capsules.iter_mut() {
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
                 let (v_old, v_new) = (self.flow.velocity(), self.flow.prepared_velocity());
-                let (grid, v_old, v_new) = cap.boxed.velocities(grid, v_old, v_new)?;
-                gs.fill_ghosts(grid);
-                let (band, normal) = (&cap.next.band, &cap.next.normal);
-                match cap.extension.as_ref() {
-                    Some(x) => x.with_extended(v_old, v_new, |u_old, u_new| {
-                        strain.prepare(grid, band, dt, u_old, u_new, normal, gs)
-                    })?,
-                    None => strain.prepare(grid, band, dt, v_old, v_new, normal, gs)?,
-                }
+                let (band, normal, extension) = (&cap.next.band, &cap.next.normal, cap.extension.as_ref());
+                cap.boxed.with_velocities(grid, v_old, v_new, |grid, v_old, v_new| {
+                    gs.fill_ghosts(grid);
+                    match extension {
+                        Some(x) => x.with_extended(v_old, v_new, |u_old, u_new| {
+                            strain.prepare(grid, band, dt, u_old, u_new, normal, gs)
+                        }),
+                        None => strain.prepare(grid, band, dt, v_old, v_new, normal, gs),
+                    }
+                })?;
             }
         }
         // The energy ledger, from the step's midpoint velocity.

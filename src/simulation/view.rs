@@ -2,6 +2,7 @@
 //! membrane of one capsule at one time level ([`MembraneView`]), and integrals over it. Below
 //! the capsules and the effects, so that neither needs the other to describe a membrane.
 
+use super::capsule::{BoxScratch, box_fields, lock_scratch};
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField, VectorField, Window};
 use crate::membrane::{
@@ -9,7 +10,7 @@ use crate::membrane::{
     extension::SurfaceExtension,
     stress::{SurfaceKinematics, surface_kinematics},
 };
-use crate::{Error, Real, Result};
+use crate::{Real, Result};
 use rayon::prelude::*;
 
 /// The fields an [`Effect`](super::Effect) needs on the capsules it acts on, beyond `phi` and what is derived
@@ -41,7 +42,7 @@ pub struct MembraneView<'a, T> {
     pub grid: &'a Grid<T>,
     /// The capsule's box in the simulation's grid.
     pub window: &'a Window,
-    pub(crate) scratch: &'a std::sync::Mutex<Option<[VectorField<T>; 2]>>,
+    pub(crate) scratch: &'a BoxScratch<T>,
     /// The smoothed volume fraction `phi` (1 inside, 0 outside; ghosts filled).
     pub phi: &'a Field<T>,
     /// `delta = |grad phi|` (2.26) where `phi` is not saturated (ghosts filled).
@@ -81,12 +82,8 @@ impl<T: Real> MembraneView<'_, T> {
         if self.window.is_whole() {
             return f(grid, x, out);
         }
-        let mut lock = self.scratch.lock().map_err(|_| Error::Unsupported {
-            component: "MembraneView::on_box",
-            detail: "a box's scratch was poisoned by a panic in another thread".into(),
-        })?;
-        let [bx, by] =
-            lock.get_or_insert_with(|| [VectorField::zeros(self.grid), VectorField::zeros(self.grid)]);
+        let mut lock = lock_scratch(self.scratch)?;
+        let [bx, by] = box_fields(self.grid, &mut lock);
         // Only the faces of the band and its halo layers, where the membrane terms read and
         // write (their stencils and the membrane map's reach two cells beyond the band).
         let dims = grid.dims();
