@@ -45,12 +45,14 @@
 //! room holds (`K` of its sites drawn at random) and shakes them by hard-sphere Monte Carlo
 //! moves (each capsule in turn moved by up to a step along each axis, the move kept where it
 //! clears the walls and every other capsule; the step steered to an acceptance of 0.3-0.5):
-//! from a lattice any fraction below close packing can be reached, and the moves carry the
-//! lattice's order away towards the hard-sphere fluid's (a few hundred sweeps).
+//! the lattices are rectangular (a count of sites along each axis), so the exclusion fraction
+//! reaches that of the simple cubic lattice, `pi / 6` = 0.52, in a room whose sides its spacing
+//! divides (less otherwise), and the moves carry the lattice's order away towards the
+//! hard-sphere fluid's (a few hundred sweeps).
 //!
 //! For the paper's biconcave cell the bounding sphere holds 2.24 times the cell's volume, so
 //! the volume fraction of cells stays below about `0.30 / 2.24 = 0.13` by sequential addition
-//! (less with a gap or walls), and about `0.5 / 2.24` shaken, far from the hematocrit of blood:
+//! (less with a gap or walls), and at most `0.52 / 2.24 = 0.23` shaken, far from the hematocrit of blood:
 //! dense suspensions of cells need a placement that packs the cells themselves (or one that
 //! lets them deform into place), which this module does not do.
 //!
