@@ -71,7 +71,7 @@ impl<T: Real> MembraneView<'_, T> {
     /// On a whole box `f` gets `grid`, `x` and `out` themselves.
     ///
     /// # Errors
-    /// Fields of another grid ([`Error::InvalidParameter`]); `f`'s own.
+    /// Fields of another grid ([`Error::InvalidParameter`](crate::Error::InvalidParameter)); `f`'s own.
     pub fn on_box(
         &self,
         grid: &Grid<T>,
