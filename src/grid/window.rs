@@ -237,13 +237,7 @@ impl Window {
 
     /// `Ok` if `grid` is this window's whole grid and `boxed` its box grid.
     fn check<T: Real>(&self, grid: &Grid<T>, boxed: &Grid<T>) -> Result<()> {
-        if grid.n() != self.n {
-            return Err(Error::invalid(
-                "grid",
-                format!("{:?} cells, the window's grid has {:?}", grid.n(), self.n),
-                "the grid the window was made on",
-            ));
-        }
+        self.check_whole(grid)?;
         if boxed.n() != self.size {
             return Err(Error::invalid(
                 "box grid",
@@ -252,6 +246,18 @@ impl Window {
             ));
         }
         Ok(())
+    }
+
+    /// `Ok` if `grid` is this window's whole grid.
+    fn check_whole<T: Real>(&self, grid: &Grid<T>) -> Result<()> {
+        match grid.n() == self.n {
+            true => Ok(()),
+            false => Err(Error::invalid(
+                "grid",
+                format!("{:?} cells, the window's grid has {:?}", grid.n(), self.n),
+                "the grid the window was made on",
+            )),
+        }
     }
 
     /// Every storage coordinate of the box, ghosts included.
@@ -432,13 +438,7 @@ impl Window {
     /// # Errors
     /// [`Error::InvalidParameter`] naming `grid` for a grid the window was not made on.
     pub fn grown<T: Real>(&self, grid: &Grid<T>, lo: [usize; 3], hi: [usize; 3]) -> Result<Self> {
-        if grid.n() != self.n {
-            return Err(Error::invalid(
-                "grid",
-                format!("{:?} cells, the window's grid has {:?}", grid.n(), self.n),
-                "the grid the window was made on",
-            ));
-        }
+        self.check_whole(grid)?;
         let mut first = self.first;
         let mut size = self.size;
         for d in 0..3 {

@@ -362,6 +362,16 @@ impl<T: Real> Advector<T> {
         self.curvature
     }
 
+    /// `Ok` if `grid` has the storage of the grid this advector was made (or last regrown) for.
+    fn check_dims(&self, grid: &Grid<T>) -> Result<()> {
+        match grid.dims() == self.dims {
+            true => Ok(()),
+            false => {
+                Err(Error::invalid("grid", format!("{:?} cells", grid.n()), "the grid of Advector::new"))
+            }
+        }
+    }
+
     /// Forgets the AB2 history: the next step is forward Euler.
     pub fn reset_history(&mut self) {
         self.dt_prev = None;
@@ -626,9 +636,7 @@ impl<T: Real> InterfaceTransport<T> for Advector<T> {
 
     /// Rolls the AB2 right-hand sides with the box.
     fn roll(&mut self, grid: &Grid<T>, axis: usize, by: isize) -> Result<()> {
-        if grid.dims() != self.dims {
-            return Err(Error::invalid("grid", format!("{:?} cells", grid.n()), "the grid of Advector::new"));
-        }
+        self.check_dims(grid)?;
         let mut line = Vec::new();
         crate::grid::Window::roll_slice(grid, &mut self.rhs_phi, axis, by, &mut line);
         crate::grid::Window::roll_slice(grid, &mut self.rhs_kappa, axis, by, &mut line);
@@ -644,13 +652,7 @@ impl<T: Real> InterfaceTransport<T> for Advector<T> {
         to: &crate::grid::Window,
         to_grid: &Grid<T>,
     ) -> Result<()> {
-        if from_grid.dims() != self.dims {
-            return Err(Error::invalid(
-                "grid",
-                format!("{:?} cells", from_grid.n()),
-                "the grid of Advector::new",
-            ));
-        }
+        self.check_dims(from_grid)?;
         let n = to_grid.len();
         let k = if self.curvature { n } else { 0 };
         let mut rhs_phi = vec![T::zero(); n];

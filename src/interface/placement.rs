@@ -981,18 +981,9 @@ impl Placement {
             Orientation::Fixed(r) => r,
             Orientation::Random => Rotation::IDENTITY,
         };
-        // Where the centres are drawn: the whole period, or between the walls less the wall
-        // distance and the smallest extent (for a random orientation each candidate is then
-        // checked against its own extent).
-        let mut lo = dom.lower;
-        let mut hi = dom.upper;
-        for d in 0..3 {
-            if !dom.periodic[d] {
-                let e = proto.wall_extent(d);
-                lo[d] = dom.lower[d] + self.wall_distance + e;
-                hi[d] = dom.upper[d] - self.wall_distance - e;
-            }
-        }
+        // Where the centres are drawn: between the walls less the smallest extent (for a
+        // random orientation each candidate is then checked against its own extent).
+        let (lo, hi) = self.centre_room(|d| proto.wall_extent(d));
         let mut rng = Xoshiro256StarStar::new(self.seed);
         let mut bins = Bins::new(dom, diameter, count);
         let mut centers: Vec<[f64; 3]> = Vec::with_capacity(count);
@@ -1029,6 +1020,22 @@ impl Placement {
             rotations.push(rotation);
         }
         Ok(Placed { domain: *dom, prototype: *proto, centers, rotations, attempts })
+    }
+
+    /// The room of the centres along each axis: the whole period, or between the walls less
+    /// the wall distance and the extent `extent(d)` along the wall's normal.
+    fn centre_room(&self, extent: impl Fn(usize) -> f64) -> ([f64; 3], [f64; 3]) {
+        let dom = &self.domain;
+        let mut lo = dom.lower;
+        let mut hi = dom.upper;
+        for d in 0..3 {
+            if !dom.periodic[d] {
+                let e = extent(d);
+                lo[d] = dom.lower[d] + self.wall_distance + e;
+                hi[d] = dom.upper[d] - self.wall_distance - e;
+            }
+        }
+        (lo, hi)
     }
 
     /// Whether a cell turned by `rotation` at `c` keeps the wall distance on every walled axis.

@@ -73,6 +73,7 @@ mod view;
 
 pub use effects::{Bending, Elasticity, SharedLaw, SurfaceForceFn, SurfaceLoad};
 pub use scene::Scene;
+use settings::box_grown_room;
 pub use settings::{
     BOX_MIN_ROOM, BendingCoupling, CapsuleStorage, GsTransport, MembraneCoupling, Phase, ReferenceArea,
     Settings, Traction, TransportMaker, box_grow_room, box_margin,
@@ -492,8 +493,8 @@ impl<T: Real> Simulation<T> {
         }
         // ... and grows where the capsule has stretched towards its sides, so that the ends of
         // its ring stay in the far field.
-        let grow_at = box_grow_room(self.settings.advection.beta.f64());
-        let target = box_margin(self.settings.advection.beta.f64()) + 2;
+        let beta = self.settings.advection.beta.f64();
+        let (grow_at, target) = (box_grow_room(beta), box_grown_room(beta));
         for c in 0..self.capsules.len() {
             let cap = &mut self.capsules[c];
             let (mut lo, mut hi) = ([0usize; 3], [0usize; 3]);

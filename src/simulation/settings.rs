@@ -124,7 +124,7 @@ pub enum CapsuleStorage {
     /// whole cells after each step, so that its membrane stays centred (along a wall axis
     /// between the walls), and grows by whole cells where the capsule has stretched towards
     /// its sides (its band within [`box_grow_room`] cells of a side: the box then leaves
-    /// [`box_margin`] cells on both sides of that axis, the whole axis where that reaches the
+    /// [`box_margin`] + 2 cells on both sides of that axis, the whole axis where that reaches the
     /// grid's length or a wall). A step that carries the band within [`BOX_MIN_ROOM`] cells of
     /// a side fails with an error naming `room`. A shape without a bounding radius keeps the
     /// whole grid.
@@ -152,12 +152,18 @@ pub fn box_margin(beta: f64) -> usize {
 pub const BOX_MIN_ROOM: usize = 4;
 
 /// The cells between a membrane band and a movable side of its box below which the box grows
-/// after a step, at profile sharpness `beta`: [`box_margin`] less 5 (7 cells at `beta = 1`; a
-/// box made with `room = 1` starts about 8.4 cells from its band). The box then grows on that
-/// axis to leave [`box_margin`] cells on both sides: the ends of its ring stay where the
-/// profile's tail is below about `1e-8`.
+/// after a step, at profile sharpness `beta`: [`box_margin`] less 3 (9 cells at `beta = 1`; a
+/// box made with `room = 1` starts about 9-10 cells from its band). The box then grows on that
+/// axis to leave [`box_margin`] + 2 cells (14) on both sides, so that the
+/// ends of its ring stay in the profile's far tail.
 pub fn box_grow_room(beta: f64) -> usize {
     box_margin(beta).saturating_sub(3).max(BOX_MIN_ROOM + 1)
+}
+
+/// The cells a grown box leaves between the membrane band and both its sides along the axis it
+/// grew on: [`box_margin`] + 2.
+pub(crate) fn box_grown_room(beta: f64) -> usize {
+    box_margin(beta) + 2
 }
 
 /// Which velocity carries and strains the membrane (`G_s`), and so where the in-plane membrane

@@ -8,22 +8,6 @@ use crate::{Error, Result};
 const ACCEPTANCE: (f64, f64) = (0.3, 0.5);
 
 impl Placement {
-    /// The room of the centres along each axis: the period, or between the walls less the
-    /// wall distance and the bounding radius (every orientation then clears the walls).
-    fn centre_room(&self) -> ([f64; 3], [f64; 3]) {
-        let (dom, rb) = (&self.domain, self.prototype.bounding_radius());
-        let mut lo = dom.lower;
-        let mut hi = dom.upper;
-        for d in 0..3 {
-            if !dom.periodic[d] {
-                let e = if self.prototype.random() { rb } else { self.prototype.wall_extent(d) };
-                lo[d] = dom.lower[d] + self.wall_distance + e;
-                hi[d] = dom.upper[d] - self.wall_distance - e;
-            }
-        }
-        (lo, hi)
-    }
-
     /// The spacing of `n` lattice sites along axis `d` of the room `lo..hi`: the period over
     /// `n` on a periodic axis; on a walled axis the sites at both ends (`inf` for one site).
     fn site_spacing(&self, d: usize, n: usize, lo: f64, hi: f64) -> f64 {
@@ -58,7 +42,10 @@ impl Placement {
         let dom = &self.domain;
         let proto = &self.prototype;
         let diameter = 2.0 * proto.bounding_radius() + self.gap;
-        let (lo, hi) = self.centre_room();
+        // Between the walls less the bounding radius for random orientations: every
+        // orientation then clears the walls.
+        let rb = proto.bounding_radius();
+        let (lo, hi) = self.centre_room(|d| if proto.random() { rb } else { proto.wall_extent(d) });
         let (n, spacing) = self.widest_lattice(count, lo, hi);
         if spacing < diameter {
             let (name, value) = self.target_name();
