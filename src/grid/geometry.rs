@@ -35,6 +35,7 @@ pub struct Grid<T> {
     h: [T; 3],
     bc: [[Boundary<T>; 2]; 3],
     dims: [usize; 3],
+    seam: [bool; 3],
 }
 
 const AXIS_NAMES: [&str; 3] = ["cells[0]", "cells[1]", "cells[2]"];
@@ -110,7 +111,7 @@ impl<T: Real> Grid<T> {
                 "cell counts whose field storage (with ghost layers) is addressable",
             ));
         }
-        Ok(Grid { n: cells, lower, upper, h, bc, dims })
+        Ok(Grid { n: cells, lower, upper, h, bc, dims, seam: [false; 3] })
     }
 
     /// The grid of a box of `size` whole cells of this grid whose cell 0 is this grid's cell
@@ -134,6 +135,7 @@ impl<T: Real> Grid<T> {
             }
             if ring[d] || segment[d] {
                 g.bc[d] = [Boundary::Periodic; 2];
+                g.seam[d] = true;
             }
         }
         g.n = size;
@@ -175,6 +177,17 @@ impl<T: Real> Grid<T> {
     #[inline]
     pub fn is_periodic(&self, axis: usize) -> bool {
         self.bc[axis][0].is_periodic()
+    }
+    /// Whether each axis's periodic closure is a *seam*: the grid is a capsule box's own grid
+    /// ([`Window::grid`](super::Window::grid)) and, along that axis, its two ends meet in the
+    /// capsule's far field rather than in the flow. A field gathered into the box is the
+    /// flow's in the box's cells, but the face past its last cell is the image of its first
+    /// one, so a discrete divergence there is the box's, not the flow's: a transport leaves
+    /// terms that are zero for a divergence-free flow (the compressibility term of (2.48)) out
+    /// of the last cell along a seam axis. `[false; 3]` for every grid built by [`Grid::new`].
+    #[inline]
+    pub fn seams(&self) -> [bool; 3] {
+        self.seam
     }
     /// Whether the grid is 2D (one cell along z).
     #[inline]

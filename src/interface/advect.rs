@@ -8,6 +8,12 @@
 //! q^{n+1} = q^n + dt ((1 + r/2) R^n - (r/2) R^{n-1}),  r = dt / dt_prev   (2.29)-(2.30)
 //! ```
 //!
+//! On a capsule box's grid the compressibility terms (`phi div v`, `kt div v`) are left out of
+//! the last cell along each seam axis ([`Grid::seams`]), where the face past the cell is the
+//! image of the box's first face and the discrete divergence is the box's closure, not the
+//! flow's: the fluxes through the seam cancel as on any periodic grid, and the sum of `phi`
+//! is conserved as on the whole grid.
+//!
 //! With a constant step, `r = 1` gives the paper's `3/2, -1/2`; the first step (or the first
 //! after [`Advector::reset_history`]) is forward Euler. The previous right-hand sides are stored,
 //! not recomputed.
@@ -584,6 +590,7 @@ impl<T: Real> Advector<T> {
             st: grid.strides(),
             axes: if grid.is_2d() { 2 } else { 3 },
             inv_h: grid.h().map(|h| T::one() / h),
+            seam: grid.seams(),
         };
         let rows_phi = self.next_phi.par_chunks_mut(dx).zip(self.rhs_phi.par_chunks_mut(dx)).enumerate();
         if K {
@@ -715,6 +722,7 @@ struct RowKernel<'a, T> {
     st: [usize; 3],
     axes: usize,
     inv_h: [T; 3],
+    seam: [bool; 3],
 }
 
 impl<T: Real> RowKernel<'_, T> {
@@ -744,12 +752,15 @@ impl<T: Real> RowKernel<'_, T> {
         kappa_new: &mut [T],
         rhs_k: &mut [T],
     ) -> bool {
-        if self.grid.row_jk(row).is_none() {
+        let Some((j, k)) = self.grid.row_jk(row) else {
             return false;
-        }
+        };
         let dx = self.grid.dims()[0];
-        let nx = self.grid.n()[0];
+        let [nx, ny, nz] = self.grid.n();
+        // On a box's seam the last cell's divergence is the box's closure, not the flow's.
+        let seam_row = (self.seam[1] && j + 1 == ny) || (self.seam[2] && k + 1 == nz);
         let g = GHOST;
+        let seam_x = if self.seam[0] { g + nx - 1 } else { usize::MAX };
         let Ab2 { dt, c1, c0 } = self.coef;
         let first = c0 == T::zero();
         let mut bad = false;
@@ -772,6 +783,9 @@ impl<T: Real> RowKernel<'_, T> {
                     div_g += (gu - gl) * self.inv_h[d];
                 }
                 div_v += (self.v.c[d].data[up] - self.v.c[d].data[idx]) * self.inv_h[d];
+            }
+            if seam_row || i == seam_x {
+                div_v = T::zero();
             }
             let f = self.phi[idx];
             let r = f * div_v - div_f;
