@@ -36,7 +36,7 @@ use eulermembrane::diagnostics::taylor::taylor_deformation;
 use eulermembrane::grid::{Boundary, Grid};
 use eulermembrane::interface::shapes::Sphere;
 use eulermembrane::membrane::law::NeoHookean;
-use eulermembrane::simulation::{Elasticity, Phase, Scene, Traction, timestep::AdaptiveDt};
+use eulermembrane::simulation::{Elasticity, Phase, Scene, timestep::AdaptiveDt};
 use std::time::Instant;
 
 /// Capillary number `Ca = mu gamma a / E_s`: viscous stress over membrane stiffness.
@@ -72,14 +72,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mu = 100.0;
     let es = mu * radius / CA;
 
-    // The library's defaults, but for one option of the elasticity: `Traction::SharpResampled`
-    // makes the membrane move and pull as one surface (the closest point on phi = 1/2, whose
-    // `G_s` the whole shell carries) instead of the paper's stack of layers across the smoothed
-    // shell (`Traction::Smoothed`, the default). On
-    // a grid this coarse the paper's traction overshoots: with it this run gives D = 0.206 over
-    // t in [1, 3], still falling at t = 6 (0.177), 13-32 % above the theory (measured; the two
-    // are compared in docs/validation/shear_capsule.md).
-    let elasticity = Elasticity::new(NeoHookean::new(es)?).traction(Traction::SharpResampled);
+    // The library's defaults. The elasticity's traction, `Traction::SharpResampled`, makes the
+    // membrane move and pull as one surface (the closest point on phi = 1/2, whose `G_s` the
+    // whole shell carries) instead of the paper's stack of layers across the smoothed shell
+    // (`.traction(Traction::Smoothed)`). On a grid this coarse the paper's traction overshoots:
+    // with it this run gives D = 0.206 over t in [1, 3], still falling at t = 6 (0.177), 13-32 %
+    // above the theory (measured; the two are compared in docs/validation/shear_capsule.md).
+    let elasticity = Elasticity::new(NeoHookean::new(es)?);
 
     // A scene is a description: the box and outer fluid, one capsule (its initial shape is its
     // unstressed reference shape), the in-plane elasticity of its membrane; the grid-wide

@@ -42,9 +42,8 @@
 //! that refuses a copy of the law with a sign error in `W_12`.) What to expect (measured): the
 //! finite-difference errors are round-off, 3e-11 to 5e-10, at most 0.08 of their tolerances;
 //! the generic tension equals the closed form `K (λ² − 1) = 0.15375`; the pressure jump is
-//! 0.3104 against `2 T / r = 0.3075`, +0.95 % (the library's own laws give +1.0 % at this
-//! resolution, docs/validation/inflated_capsule.md), with spurious currents of 0.4 % of
-//! `T / mu`; about 3 s. The run fails with an error if the harness rejects the law or accepts
+//! 0.3107 against `2 T / r = 0.3075`, +1.04 %, with spurious currents of 0.17 % of `T / mu`;
+//! about 8 s of CPU. The run fails with an error if the harness rejects the law or accepts
 //! the wrong copy, if the tension differs from the closed form by more than 1e-12
 //! (relative), or if the jump is more than 3 % from `2 T / r`.
 

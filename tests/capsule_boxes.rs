@@ -89,7 +89,11 @@ fn pushed_up(storage: CapsuleStorage, z: f64) -> Simulation<f64> {
     let settings = Settings { storage, ..Settings::default() };
     Scene::new(grid, Phase::new(1.0, 1.0).unwrap())
         .capsule(Sphere::new([0.5, 0.5, z], 0.25).unwrap())
-        .elasticity(NeoHookean::new(5.0).unwrap())
+        // Smoothed: with either sharp traction this pushed capsule at 4 cells per radius
+        // amplifies a round-off difference about a hundredfold every 30 steps from step 60
+        // (boxed against whole: 1e-16 at step 60, velocity 9e-7 (sharp) and 2e-7 (re-sampled)
+        // at step 150), so storage would be compared through a growing mode of the scheme.
+        .effect(Elasticity::new(NeoHookean::new(5.0).unwrap()).traction(Traction::Smoothed))
         .effect(SurfaceLoad::new(|_, _| [0.0, 0.0, 12.0]))
         .settings(settings)
         .build()
@@ -182,7 +186,10 @@ fn stretched(storage: CapsuleStorage) -> Simulation<f64> {
     let settings = Settings { storage, ..Settings::default() };
     let mut sim = Scene::new(grid, Phase::new(1.0, 1.0).unwrap())
         .capsule(Sphere::new([1.5, 0.5, 0.75], 0.25).unwrap())
-        .elasticity(NeoHookean::new(0.02).unwrap())
+        // Smoothed: with either sharp traction this soft capsule at 4 cells per radius has an
+        // erratic energy (jumps of 50-100 % from step 90), which makes boxed and whole-grid runs
+        // part from step 110 although they agree to 7 digits before.
+        .effect(Elasticity::new(NeoHookean::new(0.02).unwrap()).traction(Traction::Smoothed))
         .settings(settings)
         .build()
         .unwrap();

@@ -211,12 +211,12 @@ fn bad_scenes_are_refused() {
         .capsule(Sphere::new([0.25, 0.5, 0.5], 0.15).unwrap())
         .capsule(Sphere::new([0.75, 0.5, 0.5], 0.15).unwrap())
         .effect(sharp().only([0]))
-        .effect(Elasticity::new(NeoHookean::new(1.0).unwrap()).only([1]))
+        .effect(Elasticity::new(NeoHookean::new(1.0).unwrap()).traction(Traction::Smoothed).only([1]))
         .build()
         .unwrap();
     assert!(two.physics().contains("; traction=sharp,smoothed;"), "{}", two.physics());
     // Two elasticities on one capsule, of different tractions or not.
-    let smooth = Elasticity::new(NeoHookean::new(1.0).unwrap());
+    let smooth = Elasticity::new(NeoHookean::new(1.0).unwrap()).traction(Traction::Smoothed);
     let e = Scene::new(box16(), fluid()).capsule(sphere()).effect(sharp()).effect(smooth).build();
     assert!(matches!(e, Err(Error::InvalidParameter { name: "elasticity", .. })));
     assert!(matches!(Traction::from_name("sharpest"), Err(Error::InvalidParameter { name: "traction", .. })));

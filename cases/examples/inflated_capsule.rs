@@ -12,7 +12,8 @@
 //! laws) and `pressure.svg`.
 //!
 //! Flags: `--n` (64: 16 cells per radius), `--lambda` (1.05), `--steps` (40), `--dt` (`h / 4`),
-//! `--traction smoothed|sharp|sharp-resampled` (`Elasticity::traction`, smoothed), `--beta B` (1, the MTHINC
+//! `--traction sharp-resampled|sharp|smoothed` (`Elasticity::traction`, the library's default
+//! `sharp-resampled`; `smoothed` is the paper's), `--beta B` (1, the MTHINC
 //! sharpness of the profile, `Settings::with_beta`), `--out DIR`
 //! (`out/inflated_capsule`).
 //!
@@ -56,7 +57,7 @@ fn run() -> BoxResult<()> {
         "inflated_capsule: {n}^3 cells ({} per radius), lambda = {lambda}, {steps} steps of dt = {dt:.3e}",
         n / 4
     );
-    let traction = args.traction("smoothed")?;
+    let traction = args.traction(Traction::default().name())?;
     let settings = Settings::default().with_beta(args.get("beta", 1.0));
     let neo = simulate(NeoHookean::new(1.0)?, n, lambda, steps, dt, settings, traction, "neo_hookean")?;
     let skalak = simulate(Skalak::new(1.0, 1.0)?, n, lambda, steps, dt, settings, traction, "skalak")?;

@@ -73,8 +73,6 @@ use eulermembrane_cases::plot::{Figure, LineStyle};
 use std::path::Path;
 
 const SWEEP: [f64; 5] = [0.0125, 0.025, 0.05, 0.1, 0.2];
-/// The membrane traction without `--traction` (docs/validation/shear_capsule.md says why).
-const DEFAULT_TRACTION: &str = "sharp-resampled";
 
 fn main() {
     common::exit_on_error(run());
@@ -184,7 +182,7 @@ impl Numerics {
         let theta: f64 = args.get("viscous-theta", 0.6);
         Ok(Numerics {
             terms: Terms {
-                traction: args.traction(DEFAULT_TRACTION)?,
+                traction: args.traction(Traction::default().name())?,
                 bending_form: BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?,
                 bending_coupling: args.bending_coupling()?,
                 coupling: args.membrane_coupling()?,

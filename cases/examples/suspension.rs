@@ -51,12 +51,12 @@
 //! gap before the restart is that of the samples),
 //! `--room R` (each capsule on a box that follows it,
 //! `CapsuleStorage::Boxed { room: R }`; 0, the default, keeps every capsule on the whole grid),
-//! `--traction sharp|smoothed|sharp-resampled` (`Elasticity::traction`, default `sharp`,
-//! as `shear_capsule`), `--vtk-every` (1, time units; 0 for none), `--out DIR`
+//! `--traction sharp-resampled|sharp|smoothed` (`Elasticity::traction`, default
+//! `sharp-resampled`, as `shear_capsule`), `--vtk-every` (1, time units; 0 for none), `--out DIR`
 //! (`out/suspension`).
 //!
 //! Run: `cargo run --release -p eulermembrane-cases --example suspension` (6 capsules,
-//! `phi` = 0.098, 5 cells per radius, 40 x 20 x 40 cells: about 100 s on 2 cores). At 4 cells
+//! `phi` = 0.098, 5 cells per radius, 40 x 20 x 40 cells: about 3 minutes of CPU). At 4 cells
 //! per radius (`--n 32 --gap 1`) the capsules deform more (`D` 0.35, some 0.43), their films
 //! close to a cell, and from `t` = 2 on steps are retried after predictor solves that do not
 //! converge (`max|v|` jumps to 2-4 times the wall speed): a step then costs twenty times more; see
@@ -154,13 +154,12 @@ impl Config {
             max_dt: args.get("max-dt", 0.05),
             sample_every: args.get("sample-every", 0.05),
             vtk_every: args.get("vtk-every", 1.0),
-            // The sharp traction, as `shear_capsule` runs by default: the validated capsule in
-            // shear (docs/validation/shear_capsule.md). It holds the membrane's reference area
-            // and cuts the coarse-grid overshoot of D of the paper's smoothed traction
-            // (the library's default) to a third at 8 cells per radius, and its membrane moves
-            // closer to the Stokes mobility at few cells per radius (surface_mobility.md): what a
-            // suspension at 4-5 cells per radius needs most.
-            traction: args.traction("sharp")?,
+            // The library's default traction, the re-sampled sharp one: the validated capsule in
+            // shear (docs/validation/shear_capsule.md). It holds the membrane's reference area,
+            // cuts the coarse-grid overshoot of D of the paper's smoothed traction to a third at
+            // 8 cells per radius and keeps a steady state to t = 12, which a suspension sheared
+            // for tens of time units needs.
+            traction: args.traction(Traction::default().name())?,
             storage: match args.get("room", 0.0) {
                 r if r > 0.0 => CapsuleStorage::Boxed { room: r },
                 _ => CapsuleStorage::Whole,

@@ -155,11 +155,11 @@ impl<W> PerCapsule<W> {
 /// // A stiff capsule 0 and a soft capsule 1 in one scene.
 /// let stiff = Elasticity::<f64>::new(NeoHookean::new(10.0)?).only([0]);
 /// let soft = Elasticity::<f64>::new(Skalak::new(1.0, 2.0)?).only([1]);
-/// // The validated shear runs' elasticity: the re-sampled sharp traction, the default coupling.
-/// let sharp = Elasticity::<f64>::new(NeoHookean::new(1.0)?).traction(Traction::SharpResampled);
+/// // The paper's smoothed traction (the default is the re-sampled sharp one).
+/// let paper = Elasticity::<f64>::new(NeoHookean::new(1.0)?).traction(Traction::Smoothed);
 /// // The explicit stress of the stability studies.
 /// let explicit = Elasticity::<f64>::new(NeoHookean::new(1.0)?).coupling(MembraneCoupling::Explicit);
-/// # let _ = (stiff, soft, sharp, explicit);
+/// # let _ = (stiff, soft, paper, explicit);
 /// # Ok::<(), eulermembrane::Error>(())
 /// ```
 pub struct Elasticity<T: Real> {
@@ -196,8 +196,8 @@ impl<T: Real> Elasticity<T> {
     }
 
     /// The same elasticity with the traction `traction` on its capsules (default
-    /// [`Traction::Smoothed`], the paper's): which velocity carries and strains their
-    /// membranes and where its force acts. [`Traction::Sharp`] with the quasi-implicit coupling
+    /// [`Traction::SharpResampled`], the validated one; [`Traction::Smoothed`] is the paper's):
+    /// which velocity carries and strains their membranes and where its force acts. [`Traction::Sharp`] with the quasi-implicit coupling
     /// needs the Krylov predictor ([`Scene::build`](super::Scene::build) refuses it with SOR).
     pub fn traction(mut self, traction: Traction) -> Self {
         self.traction = traction;

@@ -17,7 +17,7 @@ impl<T: Real> Simulation<T> {
     pub fn physics(&self) -> String {
         let names: Vec<&str> = self.capsules.iter().map(|c| c.traction().name()).collect();
         let traction = match names.first() {
-            None => Traction::default().name().to_string(),
+            None => Traction::Smoothed.name().to_string(),
             Some(first) if names.iter().all(|n| n == first) => first.to_string(),
             Some(_) => names.join(","),
         };

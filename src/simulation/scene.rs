@@ -315,14 +315,15 @@ impl<T: Real> Scene<T> {
 }
 
 /// The traction of capsule `c`: the one the effects acting on it ask for
-/// ([`Effect::requested_traction`]), [`Traction::Smoothed`] where none asks.
+/// ([`Effect::requested_traction`]), [`Traction::Smoothed`] where none asks (no elasticity reads
+/// a membrane velocity map then, so none is built).
 ///
 /// # Errors
 /// [`Error::InvalidParameter`] naming `traction` where two of them ask for different ones.
 fn capsule_traction<T: Real>(effects: &[Box<dyn Effect<T>>], c: usize) -> Result<Traction> {
     let mut asked =
         effects.iter().filter(|e| e.acts_on(c)).filter_map(|e| Some((e.name(), e.requested_traction()?)));
-    let Some((first, traction)) = asked.next() else { return Ok(Traction::default()) };
+    let Some((first, traction)) = asked.next() else { return Ok(Traction::Smoothed) };
     match asked.find(|&(_, t)| t != traction) {
         None => Ok(traction),
         Some((other, t)) => Err(Error::invalid(

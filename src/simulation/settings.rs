@@ -39,13 +39,13 @@ impl<T: Real> Phase<T> {
 /// bending force's form and coupling to [`Bending`](super::Bending) ([`Bending::form`](super::Bending::form), [`Bending::coupling`](super::Bending::coupling)).
 ///
 /// # Choosing
-/// Start from `Settings::default()` and change only what the case needs. The validated capsule
-/// runs (`examples/capsule_in_shear.rs`, `cases/examples/shear_capsule.rs`) keep every setting
-/// and change one option of the elasticity: [`Traction::SharpResampled`], which at 6–8 cells
-/// per radius cuts the overshoot of the deformation to a third and runs to `t` = 12 (the
-/// default [`Traction::Smoothed`] is the paper's). Everything else stays: the damped
-/// viscous scheme `Theta(0.6)`, the band `epsilon = 0.01`, the quasi-implicit membrane
-/// coupling, the semi-implicit bending. For many capsules in a large box,
+/// Start from `Settings::default()` and change only what the case needs. The validated runs
+/// (`examples/capsule_in_shear.rs` and every case in `cases/examples`) keep every setting: the
+/// damped viscous scheme `Theta(0.6)`, the band `epsilon = 0.01`, the quasi-implicit membrane
+/// coupling, the semi-implicit bending, and the elasticity's default traction
+/// [`Traction::SharpResampled`], which at 6–8 cells per radius cuts the overshoot of the
+/// deformation to a third and runs to `t` = 12 ([`Traction::Smoothed`] is the paper's: the
+/// examples' `--traction smoothed`). For many capsules in a large box,
 /// [`storage`](Self::storage) `= CapsuleStorage::Boxed { room: 1.2 }` saves memory. The step
 /// is not a setting: [`AdaptiveDt::new`](super::timestep::AdaptiveDt::new)`(0.05)` (Courant target 0.3)
 /// chooses it; a fixed `dt` should keep the Courant number `max|v| dt / h` near 0.3 and below
@@ -170,9 +170,9 @@ pub(crate) fn box_grown_room(beta: f64) -> usize {
 /// force acts (it is the adjoint of that velocity's strain rate).
 ///
 /// A capsule's traction is the one its effects ask for ([`Effect::requested_traction`](super::Effect::requested_traction)): its
-/// [`Elasticity`](super::Elasticity) ([`Elasticity::traction`](super::Elasticity::traction), the default [`Smoothed`](Self::Smoothed)) or a
+/// [`Elasticity`](super::Elasticity) ([`Elasticity::traction`](super::Elasticity::traction), the default [`SharpResampled`](Self::SharpResampled)) or a
 /// [`SurfaceLoad`](super::SurfaceLoad) given one ([`SurfaceLoad::traction`](super::SurfaceLoad::traction); without, a load acts with the
-/// capsule's traction); smoothed where none asks. [`Scene::build`](super::Scene::build) refuses two effects that ask
+/// capsule's traction); smoothed where none asks (no membrane velocity map is then built). [`Scene::build`](super::Scene::build) refuses two effects that ask
 /// one capsule for different tractions.
 ///
 /// ```
@@ -196,7 +196,6 @@ pub(crate) fn box_grown_room(beta: f64) -> usize {
 pub enum Traction {
     /// The paper's: each layer of the smoothed shell moves with the fluid velocity at that
     /// layer, and the force `∇·(δ τ)` acts across the shell.
-    #[default]
     Smoothed,
     /// Each layer of the shell slides with the tangential velocity of its closest point on the
     /// surface `phi = 1/2` (its normal velocity stays the local one), and the in-plane force
@@ -216,15 +215,17 @@ pub enum Traction {
     /// work-conjugate of the whole shell's energy. In shear it removes the energy that the
     /// crushed inner layers at the tips create; the squashed sphere's energy error at N = 64
     /// is 4.7e-3 (6.6e-3 with `Sharp`). Not in the paper; docs/validation/shear_capsule.md.
+    /// The default: the traction of every validated case.
+    #[default]
     SharpResampled,
 }
 
 impl Traction {
     /// Every traction, the default first.
-    pub const ALL: [Traction; 3] = [Traction::Smoothed, Traction::Sharp, Traction::SharpResampled];
+    pub const ALL: [Traction; 3] = [Traction::SharpResampled, Traction::Sharp, Traction::Smoothed];
 
-    /// The short name of the examples' `--traction` flag and their RESULT lines: `smoothed`,
-    /// `sharp`, `sharp-resampled`.
+    /// The short name of the examples' `--traction` flag and their RESULT lines:
+    /// `sharp-resampled`, `sharp`, `smoothed`.
     pub fn name(self) -> &'static str {
         match self {
             Traction::Smoothed => "smoothed",
@@ -247,7 +248,7 @@ impl Traction {
         Self::ALL
             .into_iter()
             .find(|t| t.name() == s)
-            .ok_or_else(|| Error::invalid("traction", s, "smoothed, sharp or sharp-resampled"))
+            .ok_or_else(|| Error::invalid("traction", s, "sharp-resampled, sharp or smoothed"))
     }
 }
 
