@@ -21,26 +21,26 @@
 //! puts the capsule (1.6 cells in radius) within two cells of the walls, closer than the
 //! library allows.
 //!
-//! Transport of `G_s`: this example runs with `GsTransport::Tangential` on, the projection
-//! `G_s <- P G_s P` on the band after each step, which keeps the continuum's `G_s n = 0` of
-//! (2.18). Its figure is the energy budget, and the normal part of `G_s` that the paper's
-//! transport (2.40) lets grow is where that budget's error comes from (`docs/validation/squashed_sphere.md`,
-//! "The normal part of `G_s`"). At N = 64 to `t` = 2, `energy_err` is 4.50e-3 with the
-//! projection and 1.21e-2 with the paper's transport; the Table 2 orders are met either way
-//! (L1 `phi`/`v`/`p` 1.107/0.930/0.908 with it, 1.107/0.935/0.900 without).
-//! `--gs-transport paper` runs (2.40) as published (the library's default), `frame` the
-//! advection in each cell's tangent frame (`GsTransport::TangentFrame`) and `both` the two
-//! options together (`energy_err` 1.61e-3); with either the L1 order of `p` falls below 0.9
-//! (0.881, 0.889).
+//! Numerics: the library's defaults, whose re-sampled sharp traction projects `G_s <- P G_s P`
+//! on the band after each step (the continuum's `G_s n = 0` of (2.18)) whatever
+//! `--gs-transport` says. The paper's scheme is `--traction smoothed` (with `--gs-transport
+//! paper`, the default, (2.40)); its energy budget's error comes from the normal part of `G_s`
+//! that (2.40) lets grow, and `--traction smoothed --gs-transport tangential` removes it
+//! (`docs/validation/squashed_sphere.md`, "The normal part of `G_s`").
+//! With `--traction smoothed`: `--gs-transport paper` runs (2.40) as published (the library's
+//! default), `tangential` the projection, `frame` the advection in each cell's tangent frame
+//! (`GsTransport::TangentFrame`) and `both` the two options together (`energy_err` 1.61e-3);
+//! with either of the last two the L1 order of `p` falls below 0.9 (0.881, 0.889).
 //!
 //! Flags: `--n N` (64), `--dt` (`0.02 (16/N)^2`), `--t-end T` (2), `--gamma G` (4), `--epsilon E`
 //! (0.01, the membrane band `delta h >= E`), `--beta B` (1, `Settings::with_beta`),
-//! `--gs-transport tangential|paper|frame|both` (tangential; `energy_err` at N = 64 to `t` =
-//! 0.7: 4.50e-3 tangential, 1.21e-2 paper, 8.73e-3 frame, 1.61e-3 both), `--conserve-area`
+//! `--gs-transport paper|tangential|frame|both` (paper, the library's default; with
+//! `--traction smoothed`, `energy_err` at N = 64 to `t` = 0.7: 4.50e-3 tangential, 1.21e-2
+//! paper, 8.73e-3 frame, 1.61e-3 both), `--conserve-area`
 //! (`ReferenceArea::Conserved`), `--linear-load` (the load profile
 //! `clamp((z - 0.25) / R, -1, 1)` instead of `sgn(z - 0.25)`, a diagnostic),
-//! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--traction smoothed|sharp|sharp-resampled`
-//! (`Elasticity::traction`, smoothed), `--vtk-every S` (0.25, in
+//! `--strain-advection 3|5` (upwind order of the `G_s` advection, 3), `--traction sharp-resampled|sharp|smoothed`
+//! (`Elasticity::traction`, the library's default `sharp-resampled`; `smoothed` is the paper's), `--vtk-every S` (0.25, in
 //! time units; 0 for none), `--convergence`, `--max-n N` (128), `--out DIR`
 //! (`out/squashed_sphere`).
 //!
@@ -97,8 +97,10 @@ struct Numerics {
 fn numerics(args: &Args) -> Result<Numerics, Box<dyn std::error::Error>> {
     let mut settings = Settings::<f64>::default().with_beta(args.get("beta", 1.0));
     settings.epsilon = args.get("epsilon", settings.epsilon);
-    // The example's default is the projection (see the file docs); the library's is the paper's.
-    settings.gs_transport = GsTransport::from_name(&args.get("gs-transport", "tangential".to_string()))?;
+    // The library's defaults: with its sharp traction the projection runs whatever this says.
+    settings.gs_transport = GsTransport::from_name(
+        &args.get("gs-transport", Settings::<f64>::default().gs_transport.name().to_string()),
+    )?;
     if args.flag("conserve-area") {
         settings.reference_area = ReferenceArea::Conserved;
     }
@@ -107,7 +109,7 @@ fn numerics(args: &Args) -> Result<Numerics, Box<dyn std::error::Error>> {
         5 => StrainAdvection::Upwind5,
         o => return Err(eulermembrane::Error::invalid("--strain-advection", o, "3 or 5").into()),
     };
-    Ok(Numerics { settings, traction: args.traction("smoothed")? })
+    Ok(Numerics { settings, traction: args.traction(Traction::default().name())? })
 }
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.
