@@ -40,7 +40,8 @@ impl<T: Real> Phase<T> {
 ///
 /// # Choosing
 /// Start from `Settings::default()` and change only what the case needs. The validated runs
-/// (`examples/capsule_in_shear.rs` and every case in `cases/examples`) keep every setting: the
+/// (`examples/capsule_in_shear.rs` and the cases of `cases/examples`; `rbc_channel`'s red-cell
+/// figures are still the paper's smoothed traction's) keep every setting: the
 /// damped viscous scheme `Theta(0.6)`, the band `epsilon = 0.01`, the quasi-implicit membrane
 /// coupling, the semi-implicit bending, and the elasticity's default traction
 /// [`Traction::SharpResampled`], which at 6–8 cells per radius cuts the overshoot of the
@@ -215,7 +216,8 @@ pub enum Traction {
     /// work-conjugate of the whole shell's energy. In shear it removes the energy that the
     /// crushed inner layers at the tips create; the squashed sphere's energy error at N = 64
     /// is 4.7e-3 (6.6e-3 with `Sharp`). Not in the paper; docs/validation/shear_capsule.md.
-    /// The default: the traction of every validated case.
+    /// The default: the traction of the validated shear, squashed-sphere, inflated-capsule and
+    /// suspension cases.
     #[default]
     SharpResampled,
 }
