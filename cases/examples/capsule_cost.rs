@@ -69,7 +69,7 @@ fn run() -> BoxResult<()> {
     }
     let storage = if room > 0.0 { CapsuleStorage::Boxed { room } } else { CapsuleStorage::Whole };
     let settings = Settings { storage, ..Settings::default() };
-    let traction = args.traction(Traction::default().name())?;
+    let traction = args.traction(Traction::default())?;
     let mut csv = CsvWriter::create(
         out.join("cost.csv"),
         &["n", "k", "step_s", "cores", "setup_s", "iters", "marginal_s"],

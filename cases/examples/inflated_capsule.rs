@@ -57,7 +57,7 @@ fn run() -> BoxResult<()> {
         "inflated_capsule: {n}^3 cells ({} per radius), lambda = {lambda}, {steps} steps of dt = {dt:.3e}",
         n / 4
     );
-    let traction = args.traction(Traction::default().name())?;
+    let traction = args.traction(Traction::default())?;
     let settings = Settings::default().with_beta(args.get("beta", 1.0));
     let neo = simulate(NeoHookean::new(1.0)?, n, lambda, steps, dt, settings, traction, "neo_hookean")?;
     let skalak = simulate(Skalak::new(1.0, 1.0)?, n, lambda, steps, dt, settings, traction, "skalak")?;

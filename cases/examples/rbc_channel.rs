@@ -160,7 +160,7 @@ fn run() -> BoxResult<()> {
     let form: String = args.get("bending-form", "divergence".to_string());
     let numerics = Numerics {
         terms: Terms {
-            traction: args.traction("smoothed")?,
+            traction: args.traction(Traction::Smoothed)?,
             bending_form: BendingForm::from_name(&form)?,
             bending_coupling: args.bending_coupling()?,
             ..PAPER.numerics.terms

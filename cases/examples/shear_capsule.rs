@@ -182,7 +182,7 @@ impl Numerics {
         let theta: f64 = args.get("viscous-theta", 0.6);
         Ok(Numerics {
             terms: Terms {
-                traction: args.traction(Traction::default().name())?,
+                traction: args.traction(Traction::default())?,
                 bending_form: BendingForm::from_name(&args.get("bending-form", "divergence".to_string()))?,
                 bending_coupling: args.bending_coupling()?,
                 coupling: args.membrane_coupling()?,

@@ -97,10 +97,10 @@ struct Numerics {
 fn numerics(args: &Args) -> Result<Numerics, Box<dyn std::error::Error>> {
     let mut settings = Settings::<f64>::default().with_beta(args.get("beta", 1.0));
     settings.epsilon = args.get("epsilon", settings.epsilon);
-    // The library's defaults: with its sharp traction the projection runs whatever this says.
-    settings.gs_transport = GsTransport::from_name(
-        &args.get("gs-transport", Settings::<f64>::default().gs_transport.name().to_string()),
-    )?;
+    // The library's default unless asked: with its sharp traction the projection runs whatever
+    // this says.
+    settings.gs_transport =
+        GsTransport::from_name(&args.get("gs-transport", settings.gs_transport.name().to_string()))?;
     if args.flag("conserve-area") {
         settings.reference_area = ReferenceArea::Conserved;
     }
@@ -109,7 +109,7 @@ fn numerics(args: &Args) -> Result<Numerics, Box<dyn std::error::Error>> {
         5 => StrainAdvection::Upwind5,
         o => return Err(eulermembrane::Error::invalid("--strain-advection", o, "3 or 5").into()),
     };
-    Ok(Numerics { settings, traction: args.traction(Traction::default().name())? })
+    Ok(Numerics { settings, traction: args.traction(Traction::default())? })
 }
 
 /// The scene of Sec. 3.2 on `n x n x n/2` cells.

@@ -159,7 +159,7 @@ impl Config {
             // cuts the coarse-grid overshoot of D of the paper's smoothed traction to a third at
             // 8 cells per radius and keeps a steady state to t = 12, which a suspension sheared
             // for tens of time units needs.
-            traction: args.traction(Traction::default().name())?,
+            traction: args.traction(Traction::default())?,
             storage: match args.get("room", 0.0) {
                 r if r > 0.0 => CapsuleStorage::Boxed { room: r },
                 _ => CapsuleStorage::Whole,

@@ -164,12 +164,15 @@ impl Args {
         }
     }
 
-    /// `Elasticity::traction` from `--traction smoothed|sharp|sharp-resampled` (default `default`).
+    /// `Elasticity::traction` from `--traction sharp-resampled|sharp|smoothed` (`default` without it).
     ///
     /// # Errors
     /// Any other traction name.
-    pub fn traction(&self, default: &str) -> BoxResult<Traction> {
-        Ok(Traction::from_name(&self.get("traction", default.to_string()))?)
+    pub fn traction(&self, default: Traction) -> BoxResult<Traction> {
+        match self.raw("traction") {
+            Some(name) => Ok(Traction::from_name(name)?),
+            None => Ok(default),
+        }
     }
 
     /// The output folder (`--out`, default `out/<name>`), created.
