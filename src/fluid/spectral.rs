@@ -88,6 +88,14 @@ impl<T: Real> SpectralSolver<T> {
         if let Location::Velocity(d @ 3..) = location {
             return Err(Error::invalid("Location::Velocity", d, "a component 0, 1 or 2"));
         }
+        if grid.is_split() {
+            return Err(Error::Unsupported {
+                component: "SpectralSolver",
+                detail: "a part of a decomposed grid: the direct solver needs whole lines along every \
+                         axis and is not decomposed yet"
+                    .into(),
+            });
+        }
         let kinds = location.kinds(grid);
         let walls: Vec<usize> = (0..3).filter(|&a| kinds[a] != AxisKind::Periodic).collect();
         if walls.len() > 1 {

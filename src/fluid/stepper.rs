@@ -206,6 +206,12 @@ impl<T: Real> FlowStepper<T> {
     /// Errors: non-positive or non-finite materials, invalid solver settings, a grid the direct
     /// solvers cannot handle (more than one wall axis).
     pub fn new(grid: &Grid<T>, materials: Materials<T>, config: FlowConfig) -> Result<Self> {
+        if grid.is_split() {
+            return Err(Error::Unsupported {
+                component: "FlowStepper",
+                detail: "a part of a decomposed grid: the flow step is not decomposed yet".into(),
+            });
+        }
         materials.rho.validate(grid, "rho")?;
         materials.mu.validate(grid, "mu")?;
         config.viscous.validate()?;

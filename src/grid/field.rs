@@ -2,8 +2,9 @@
 //! staggered velocity, or any face vector) and [`SymField`] (symmetric tensors at cell centres),
 //! and the one routine that fills their ghost layers.
 //!
-//! Ghost filling is the only place where boundary conditions enter a field; a future domain
-//! decomposition replaces it without touching the kernels.
+//! Ghost filling is the only place where boundary conditions and neighbouring parts enter a
+//! field: on a part of a decomposed grid ([`Grid::split`]) the ghosts along the split axis are
+//! the neighbours' cells, received through the grid's [`Exchange`](super::Exchange).
 
 use super::{Boundary, GHOST, Grid};
 use crate::Real;
@@ -32,6 +33,8 @@ pub struct Field<T> {
 #[derive(Debug, Clone, Copy)]
 enum Side<T> {
     Periodic,
+    /// The neighbouring part's cells (the split axis of a decomposed grid).
+    Neighbour,
     /// Cell-centred value reflected about the wall: `ghost = offset + sign * mirror`.
     Cell {
         sign: T,
@@ -304,12 +307,55 @@ impl<T: Real> SymField<T> {
 
 fn side_pair<T: Real>(grid: &Grid<T>, axis: usize, wall: impl Fn(Boundary<T>) -> Side<T>) -> [Side<T>; 2] {
     let bc = grid.bc(axis);
+    if grid.is_split() && grid.part().is_some_and(|p| p.axis == axis) {
+        return [Side::Neighbour; 2];
+    }
     std::array::from_fn(|s| if bc[s].is_periodic() { Side::Periodic } else { wall(bc[s]) })
+}
+
+/// Fills the ghosts of `data` along the split axis of a part from its two neighbours: its first
+/// [`GHOST`] layers go down (the lower part's upper ghosts), its last ones up, every line of
+/// the padded array (so that edges and corners come out right, as in [`fill_axis`]).
+fn exchange_axis<T: Real>(data: &mut [T], grid: &Grid<T>, axis: usize) {
+    let Some(part) = grid.part() else { return };
+    let dims = grid.dims();
+    let st = grid.strides();
+    let n = grid.n()[axis];
+    let (a1, a2) = match axis {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    let lines = dims[a1] * dims[a2];
+    let index =
+        |line: usize, m: usize| (line % dims[a1]) * st[a1] + (line / dims[a1]) * st[a2] + m * st[axis];
+    let pack = |from: usize| -> Vec<f64> {
+        let mut buf = Vec::with_capacity(lines * GHOST);
+        for line in 0..lines {
+            buf.extend((from..from + GHOST).map(|m| data[index(line, m)].f64()));
+        }
+        buf
+    };
+    // Storage layers: ghosts 0..GHOST, interior GHOST..GHOST + n, ghosts above.
+    let (to_lower, to_upper) = (pack(GHOST), pack(n));
+    let (mut from_lower, mut from_upper) = (vec![0.0; to_lower.len()], vec![0.0; to_upper.len()]);
+    let [lower, upper] = part.neighbours();
+    part.exchange.swap(lower, upper, &to_lower, &to_upper, &mut from_lower, &mut from_upper);
+    for line in 0..lines {
+        for m in 0..GHOST {
+            data[index(line, m)] = T::lit(from_lower[line * GHOST + m]);
+            data[index(line, n + GHOST + m)] = T::lit(from_upper[line * GHOST + m]);
+        }
+    }
 }
 
 /// Fills the ghosts of `data` along `axis`, on every line of the padded array (so that edges and
 /// corners come out right when the axes are filled one after the other).
 fn fill_axis<T: Real>(data: &mut [T], grid: &Grid<T>, axis: usize, sides: [Side<T>; 2]) {
+    if matches!(sides[0], Side::Neighbour) {
+        exchange_axis(data, grid, axis);
+        return;
+    }
     let dims = grid.dims();
     let st = grid.strides();
     let n = grid.n()[axis] as isize;
@@ -326,6 +372,7 @@ fn fill_axis<T: Real>(data: &mut [T], grid: &Grid<T>, axis: usize, sides: [Side<
             let at = |m: isize| (base + m * s) as usize;
             // Lower side.
             match sides[0] {
+                Side::Neighbour => unreachable!("exchanged above"),
                 Side::Periodic => {
                     for m in -g..0 {
                         data[at(m)] = data[at(m.rem_euclid(n))];
@@ -345,6 +392,7 @@ fn fill_axis<T: Real>(data: &mut [T], grid: &Grid<T>, axis: usize, sides: [Side<
             }
             // Upper side.
             match sides[1] {
+                Side::Neighbour => unreachable!("exchanged above"),
                 Side::Periodic => {
                     for m in n..n + g {
                         data[at(m)] = data[at(m.rem_euclid(n))];

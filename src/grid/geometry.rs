@@ -29,13 +29,15 @@ const MIN_CELLS: usize = 4;
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Grid<T> {
-    n: [usize; 3],
-    lower: [T; 3],
-    upper: [T; 3],
+    pub(super) n: [usize; 3],
+    pub(super) lower: [T; 3],
+    pub(super) upper: [T; 3],
     h: [T; 3],
     bc: [[Boundary<T>; 2]; 3],
-    dims: [usize; 3],
+    pub(super) dims: [usize; 3],
     seam: [bool; 3],
+    /// Where this grid is one part of a decomposed grid ([`Grid::split`]).
+    pub(super) part: Option<super::decomposition::Part>,
 }
 
 const AXIS_NAMES: [&str; 3] = ["cells[0]", "cells[1]", "cells[2]"];
@@ -111,7 +113,7 @@ impl<T: Real> Grid<T> {
                 "cell counts whose field storage (with ghost layers) is addressable",
             ));
         }
-        Ok(Grid { n: cells, lower, upper, h, bc, dims, seam: [false; 3] })
+        Ok(Grid { n: cells, lower, upper, h, bc, dims, seam: [false; 3], part: None })
     }
 
     /// The grid of a box of `size` whole cells of this grid whose cell 0 is this grid's cell

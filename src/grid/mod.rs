@@ -15,12 +15,18 @@
 //! reads copies of the same plane, and z-derivatives vanish exactly.
 
 mod boundary;
+mod decomposition;
 mod field;
 mod geometry;
+#[cfg(feature = "mpi")]
+mod mpi_ranks;
 pub mod ops;
 mod window;
 
 pub use boundary::Boundary;
+pub use decomposition::{Decomposition, Exchange, LocalParts};
 pub use field::{Field, SymField, VectorField};
 pub use geometry::{GHOST, Grid};
+#[cfg(feature = "mpi")]
+pub use mpi_ranks::MpiExchange;
 pub use window::Window;
