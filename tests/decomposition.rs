@@ -8,7 +8,7 @@
 mod parts;
 
 use eulermembrane::grid::{Decomposition, Exchange, Grid, LocalParts};
-use parts::{Whole, cases, check_part, field, grid};
+use parts::{LOCATIONS, Whole, cases, check_part, field, flow_on, four_solves, grid, max_difference};
 use std::sync::Arc;
 
 /// Runs `check(part grid, whole grid)` on every part of `whole` split by `d`, one thread each.
@@ -71,6 +71,85 @@ fn a_part_lies_where_its_cells_lie_in_the_whole_grid() {
         let close = a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-14);
         if part.h() != whole.h() || part.global_cells() != whole.n() || !close {
             return Err(format!("part at {o:?}: centre {a:?} against {b:?}"));
+        }
+        Ok(())
+    });
+}
+
+#[test]
+fn the_direct_solver_on_parts_is_the_whole_grids() {
+    for wall in [None, Some(0), Some(1), Some(2)] {
+        let whole = grid(wall);
+        for location in LOCATIONS {
+            let expected = four_solves(&whole, location).unwrap();
+            let scale = expected.iter().flat_map(|x| x.iter()).fold(0.0f64, |m, v| m.max(v.abs()));
+            for axis in (0..3).filter(|&a| Some(a) != wall) {
+                for parts in 1..=3 {
+                    on_parts(&whole, Decomposition::slabs(axis, parts).unwrap(), |part| {
+                        let got = four_solves(part, location)?;
+                        for (m, (g, e)) in got.iter().zip(&expected).enumerate() {
+                            let diff = max_difference(part, g, &whole, e);
+                            if diff > 1e-13 * scale {
+                                return Err(format!("{location:?}, solve {m}: {diff:e} (scale {scale:e})"));
+                            }
+                        }
+                        Ok(())
+                    });
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_flow_step_on_parts_is_the_whole_grids() {
+    for wall in [None, Some(2), Some(0)] {
+        let whole = grid(wall);
+        let (v, p) = flow_on(&whole, 6).unwrap();
+        let scale = v.c.iter().flat_map(|c| c.values().iter()).fold(0.0f64, |m, x| m.max(x.abs()));
+        for axis in (0..3).filter(|&a| Some(a) != wall) {
+            for parts in [2, 3] {
+                on_parts(&whole, Decomposition::slabs(axis, parts).unwrap(), |part| {
+                    let (pv, pp) = flow_on(part, 6)?;
+                    for c in 0..3 {
+                        let diff = max_difference(part, pv.c[c].values(), &whole, v.c[c].values());
+                        if diff > 1e-11 * scale {
+                            return Err(format!(
+                                "walls {wall:?}: velocity {c} differs by {diff:e} (scale {scale:e})"
+                            ));
+                        }
+                    }
+                    let diff = max_difference(part, pp.values(), &whole, p.values());
+                    if diff > 1e-9 {
+                        return Err(format!("walls {wall:?}: pressure differs by {diff:e}"));
+                    }
+                    Ok(())
+                });
+            }
+        }
+    }
+}
+
+#[test]
+fn what_is_not_decomposed_refuses_a_part() {
+    use eulermembrane::fluid::momentum::Materials;
+    use eulermembrane::fluid::stepper::{FlowConfig, FlowStepper, PredictorSolver};
+    use eulermembrane::interface::shapes::Sphere;
+    use eulermembrane::simulation::{Phase, Scene};
+    let whole = grid(Some(2));
+    on_parts(&whole, Decomposition::slabs(0, 2).unwrap(), |part| {
+        let sor = FlowConfig { predictor: PredictorSolver::Sor(Default::default()), ..FlowConfig::default() };
+        let e = FlowStepper::new(part, Materials::uniform(1.0, 1.0).unwrap(), sor)
+            .err()
+            .ok_or("SOR on a part")?;
+        if !e.to_string().contains("SOR") {
+            return Err(format!("SOR refused with {e}"));
+        }
+        let scene = Scene::new(part.clone(), Phase::new(1.0, 1.0).unwrap())
+            .capsule(Sphere::new([0.65, -0.4, 1.25], 0.3).unwrap());
+        let e = scene.build().err().ok_or("a scene on a part")?;
+        if !e.to_string().contains("capsules are not decomposed") {
+            return Err(format!("the scene refused with {e}"));
         }
         Ok(())
     });

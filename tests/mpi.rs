@@ -1,7 +1,8 @@
 //! (feature `mpi`) The decomposition checks of `tests/decomposition.rs` on MPI ranks: run under
 //! `mpirun -np P` (`.ci/run` runs P = 1, 2 and 4). Each rank is one part; every stored value
 //! of every part after a ghost fill equals the whole grid's (each rank also holds the whole
-//! grid), and sums over the parts are identical on every rank and agree with the whole grid's.
+//! grid), sums over the parts are identical on every rank and agree with the whole grid's, and
+//! the direct solver and the flow step agree with the whole grid's to round-off.
 //! Rank 0 prints `N passed, M failed`; the exit status is non-zero on any failure.
 
 mod parts;
@@ -9,7 +10,7 @@ mod parts;
 use eulermembrane::grid::{Decomposition, Exchange, MpiExchange};
 use mpi::environment::Threading;
 use mpi::traits::{Communicator, CommunicatorCollectives};
-use parts::{Whole, cases, check_part, field};
+use parts::{LOCATIONS, Whole, cases, check_part, field, flow_on, four_solves, grid, max_difference};
 use std::sync::Arc;
 
 fn main() {
@@ -52,7 +53,46 @@ fn main() {
             },
         );
     }
-    let _ = Decomposition::slabs(0, size).expect("a decomposition of the ranks");
+    // The direct solver and the flow step (variable density and viscosity, the Krylov
+    // predictor, the projection) against the whole grid's, on each rank's part.
+    for wall in [None, Some(2)] {
+        let whole = grid(wall);
+        let flow = flow_on(&whole, 4).expect("the whole grid's flow");
+        let expected: Vec<_> =
+            LOCATIONS.iter().map(|&l| four_solves(&whole, l).expect("whole solves")).collect();
+        for axis in (0..3).filter(|&a| Some(a) != wall && whole.n()[a] / size >= 4) {
+            let d = Decomposition::slabs(axis, size).expect("a decomposition of the ranks");
+            let part = whole.split(d, exchange.clone()).expect("a part");
+            for (location, e) in LOCATIONS.iter().zip(&expected) {
+                let scale = e.iter().flat_map(|x| x.iter()).fold(0.0f64, |m, v| m.max(v.abs()));
+                let got = four_solves(&part, *location);
+                let worst = got.map(|g| {
+                    g.iter().zip(e).map(|(g, e)| max_difference(&part, g, &whole, e)).fold(0.0, f64::max)
+                });
+                report(
+                    format!("solver {location:?}, {d:?}, walls {wall:?}"),
+                    match worst {
+                        Ok(w) if w <= 1e-13 * scale => Ok(()),
+                        Ok(w) => Err(format!("differs by {w:e} (scale {scale:e})")),
+                        Err(e) => Err(e),
+                    },
+                );
+            }
+            let got = flow_on(&part, 4);
+            let worst = got.map(|(v, p)| {
+                let dv = (0..3).map(|c| max_difference(&part, v.c[c].values(), &whole, flow.0.c[c].values()));
+                (dv.fold(0.0, f64::max), max_difference(&part, p.values(), &whole, flow.1.values()))
+            });
+            report(
+                format!("flow, {d:?}, walls {wall:?}"),
+                match worst {
+                    Ok((dv, dp)) if dv <= 1e-12 && dp <= 1e-9 => Ok(()),
+                    Ok((dv, dp)) => Err(format!("velocity differs by {dv:e}, pressure by {dp:e}")),
+                    Err(e) => Err(e),
+                },
+            );
+        }
+    }
     let mut totals = [0u64; 2];
     world.all_reduce_into(&[passed, failed], &mut totals, mpi::collective::SystemOperation::sum());
     if rank == 0 {

@@ -2,7 +2,9 @@
 //!
 //! Reductions are summed in [`CHUNKS`] fixed blocks of x-lines, each block in order, then the
 //! blocks in order: the result does not depend on the number of threads or on scheduling, so a
-//! run is reproducible bit for bit (and so is a restarted run).
+//! run is reproducible bit for bit (and so is a restarted run). On a part of a decomposed grid
+//! ([`Grid::split`]) each part sums its slab so and the parts' sums are added in part order
+//! ([`Grid::sum_over_parts`]): reproducible for a given number of parts.
 //!
 //! The fused passes ([`InteriorVector::update`], [`InteriorVector::update_reduce`],
 //! [`InteriorVector::reduce`]) read every operand once per cell, so that a Krylov iteration
@@ -48,7 +50,8 @@ fn sum_blocks<T: Real, P: Send>(
             *p = work(piece, r0..r1);
         },
     );
-    partial.iter().fold([T::zero(); 2], |s, p| [s[0] + p[0], s[1] + p[1]])
+    // On a part of a decomposed grid the parts' sums are then added in part order.
+    grid.sum_over_parts(partial.iter().fold([T::zero(); 2], |s, p| [s[0] + p[0], s[1] + p[1]]))
 }
 
 /// The interior values of x-line `base .. base + nx` of each slice.

@@ -52,10 +52,14 @@ impl<T: Real> Coefficient<T> {
         match self {
             Coefficient::Uniform(v) => (*v, *v),
             Coefficient::Field(f) => {
-                grid.cells().fold((T::infinity(), T::neg_infinity()), |(lo, hi), (i, j, k)| {
-                    let x = f.data[grid.idx_u(i, j, k)];
-                    (lo.min(x), hi.max(x))
-                })
+                let (lo, hi) =
+                    grid.cells().fold((T::infinity(), T::neg_infinity()), |(lo, hi), (i, j, k)| {
+                        let x = f.data[grid.idx_u(i, j, k)];
+                        (lo.min(x), hi.max(x))
+                    });
+                // Over the whole grid where this is a part of one.
+                let [lo, hi] = grid.max_over_parts([-lo, hi]);
+                (-lo, hi)
             }
         }
     }
@@ -71,7 +75,7 @@ impl<T: Real> Coefficient<T> {
                     "a field of the stepper's grid",
                 ));
             }
-            if let Some(c) = grid.cells().find(|&(i, j, k)| !f.data[grid.idx_u(i, j, k)].is_finite()) {
+            if let Some(c) = f.first_non_finite(grid) {
                 return Err(Error::invalid(
                     name,
                     format!("non-finite value at cell {c:?}"),

@@ -221,7 +221,9 @@ impl<T: Real> Projection<T> {
         let inv_dt = T::one() / dt;
         // Right-hand side -div(v*)/dt of -div(grad psi / rho) = -div(v*)/dt, mean removed.
         par_interior(grid, &mut self.rhs.data, |idx, _, _, _| -divergence_at_cell(grid, vstar, idx) * inv_dt);
-        let mean = self.rhs.interior_sum(grid) / T::from_usize(grid.cell_count()).unwrap();
+        let [sum, cells] =
+            grid.sum_over_parts([self.rhs.interior_sum(grid), T::from_usize(grid.cell_count()).unwrap()]);
+        let mean = sum / cells;
         let rhs = &mut self.rhs;
         crate::grid::ops::par_interior_update(grid, &mut rhs.data, |_, _, _, _, b| b - mean);
         let info = self.solver.solve(grid, rho, rhs, psi)?;

@@ -11,6 +11,8 @@
 //! Used as the pressure solver of (2.36) when the density is uniform, as the preconditioner of
 //! the variable-density PCG, and as the preconditioner of the momentum predictor (2.35).
 
+mod split;
+
 use crate::grid::ops::min_rows;
 use crate::grid::{GHOST, Grid};
 use crate::{Error, Real, Result};
@@ -18,6 +20,37 @@ use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 use std::sync::Arc;
+
+/// The FFT plans of the three axes of `n` cells and the eigenvalues of the second differences,
+/// `(2 - 2 cos(2 pi m / n)) / h^2` for wavenumber `m`.
+struct Modes<T: Real> {
+    fwd: [Arc<dyn Fft<T>>; 3],
+    inv: [Arc<dyn Fft<T>>; 3],
+    lambda: [Vec<T>; 3],
+}
+
+impl<T: Real> Modes<T> {
+    fn new(n: [usize; 3], h: [T; 3]) -> Self {
+        let mut planner = FftPlanner::<T>::new();
+        let fwd = std::array::from_fn(|a| planner.plan_fft_forward(n[a]));
+        let inv = std::array::from_fn(|a| planner.plan_fft_inverse(n[a]));
+        let two = T::lit(2.0);
+        let lambda = std::array::from_fn(|a| {
+            (0..n[a])
+                .map(|m| {
+                    let theta = T::TAU() * T::from_usize(m).unwrap() / T::from_usize(n[a]).unwrap();
+                    (two - two * theta.cos()) / (h[a] * h[a])
+                })
+                .collect()
+        });
+        Modes { fwd, inv, lambda }
+    }
+
+    /// The in-place scratch the transforms along `axis` need.
+    fn scratch_len(&self, axis: usize) -> usize {
+        self.fwd[axis].get_inplace_scratch_len().max(self.inv[axis].get_inplace_scratch_len())
+    }
+}
 
 /// The discrete boundary closure of one axis for one kind of unknown.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,9 +97,7 @@ pub struct SpectralSolver<T: Real> {
     h: [T; 3],
     kinds: [AxisKind; 3],
     wall: Option<usize>,
-    lambda: [Vec<T>; 3],
-    fwd: [Arc<dyn Fft<T>>; 3],
-    inv: [Arc<dyn Fft<T>>; 3],
+    modes: Modes<T>,
     a: Vec<Complex<T>>,
     b: Vec<Complex<T>>,
     /// The second work array of the blended solves (empty until the first one).
@@ -77,6 +108,8 @@ pub struct SpectralSolver<T: Real> {
     /// The eliminated upper diagonal of every cell, for a wall in y or z (empty otherwise).
     cp: Vec<T>,
     blocks: usize,
+    /// The distributed solve of a part of a decomposed grid (the arrays above then stay empty).
+    split: Option<Box<split::SplitSolve<T>>>,
 }
 
 impl<T: Real> SpectralSolver<T> {
@@ -87,14 +120,6 @@ impl<T: Real> SpectralSolver<T> {
     pub fn new(grid: &Grid<T>, location: Location) -> Result<Self> {
         if let Location::Velocity(d @ 3..) = location {
             return Err(Error::invalid("Location::Velocity", d, "a component 0, 1 or 2"));
-        }
-        if grid.is_split() {
-            return Err(Error::Unsupported {
-                component: "SpectralSolver",
-                detail: "a part of a decomposed grid: the direct solver needs whole lines along every \
-                         axis and is not decomposed yet"
-                    .into(),
-            });
         }
         let kinds = location.kinds(grid);
         let walls: Vec<usize> = (0..3).filter(|&a| kinds[a] != AxisKind::Periodic).collect();
@@ -107,41 +132,29 @@ impl<T: Real> SpectralSolver<T> {
                 ),
             });
         }
+        let wall = walls.first().copied();
         let n = grid.n();
         let h = grid.h();
-        let mut planner = FftPlanner::<T>::new();
-        let fwd: [Arc<dyn Fft<T>>; 3] = std::array::from_fn(|a| planner.plan_fft_forward(n[a]));
-        let inv: [Arc<dyn Fft<T>>; 3] = std::array::from_fn(|a| planner.plan_fft_inverse(n[a]));
-        let two = T::lit(2.0);
-        let lambda = std::array::from_fn(|a| {
-            (0..n[a])
-                .map(|m| {
-                    let theta = T::TAU() * T::from_usize(m).unwrap() / T::from_usize(n[a]).unwrap();
-                    (two - two * theta.cos()) / (h[a] * h[a])
-                })
-                .collect()
-        });
-        let total = n[0] * n[1] * n[2];
+        // A part of a decomposed grid solves through its own arrays; the whole-grid ones
+        // below then stay empty.
+        let split =
+            if grid.is_split() { Some(Box::new(split::SplitSolve::new(grid, kinds, wall)?)) } else { None };
+        let modes = Modes::new(n, h);
+        let total = if split.is_some() { 0 } else { n[0] * n[1] * n[2] };
         let blocks = rayon::current_num_threads().max(1);
-        let scratch_len = (0..3)
-            .map(|a| fwd[a].get_inplace_scratch_len().max(inv[a].get_inplace_scratch_len()))
-            .max()
-            .unwrap_or(0);
-        let wall = walls.first().copied();
+        let scratch_len = (0..3).map(|a| modes.scratch_len(a)).max().unwrap_or(0);
         Ok(SpectralSolver {
             n,
             h,
             kinds,
             wall,
-            lambda,
-            fwd,
-            inv,
+            modes,
             a: vec![Complex::default(); total],
             b: vec![Complex::default(); total],
             a2: Vec::new(),
             fft_scratch: (0..blocks).map(|_| vec![Complex::default(); scratch_len]).collect(),
             thomas_scratch: match wall {
-                Some(0) => (0..blocks).map(|_| vec![T::zero(); n[0]]).collect(),
+                Some(0) if split.is_none() => (0..blocks).map(|_| vec![T::zero(); n[0]]).collect(),
                 _ => Vec::new(),
             },
             cp: match wall {
@@ -149,6 +162,7 @@ impl<T: Real> SpectralSolver<T> {
                 _ => Vec::new(),
             },
             blocks,
+            split,
         })
     }
 
@@ -161,6 +175,9 @@ impl<T: Real> SpectralSolver<T> {
     /// ghosts untouched). `sigma >= 0`, `c > 0`. When `sigma = 0` and the operator is singular
     /// (all periodic, or Neumann), the mean of `b` is ignored and `x` has zero mean.
     pub fn solve(&mut self, grid: &Grid<T>, sigma: T, c: T, b: &[T], x: &mut [T]) {
+        if let Some(sp) = &mut self.split {
+            return sp.solve(grid, sigma, c, [Some(b), None], [Some(x), None]);
+        }
         self.gather(grid, b, None);
         let scale = self.transform(sigma, c);
         self.scatter(grid, scale, x, None);
@@ -170,6 +187,10 @@ impl<T: Real> SpectralSolver<T> {
     /// [`solve`](Self::solve) does each: the operator is real, so one complex solve of
     /// `b_1 + i b_2` gives `x_1 + i x_2`, at the cost of one solve instead of two.
     pub fn solve_pair(&mut self, grid: &Grid<T>, sigma: T, c: T, b: [&[T]; 2], x: [&mut [T]; 2]) {
+        if let Some(sp) = &mut self.split {
+            let [x1, x2] = x;
+            return sp.solve(grid, sigma, c, [Some(b[0]), Some(b[1])], [Some(x1), Some(x2)]);
+        }
         self.gather(grid, b[0], Some(b[1]));
         let scale = self.transform(sigma, c);
         let [x1, x2] = x;
@@ -222,7 +243,7 @@ impl<T: Real> SpectralSolver<T> {
         match self.wall {
             Some(w) => self.thomas(w, sigma, c),
             None => {
-                let lam = &self.lambda;
+                let lam = &self.modes.lambda;
                 self.a.par_chunks_mut(nx).with_min_len(min_rows(nx)).enumerate().for_each(|(line, row)| {
                     let (j, k) = (line % ny, line / ny);
                     let base = lam[1][j] + lam[2][k];
@@ -257,6 +278,9 @@ impl<T: Real> SpectralSolver<T> {
     /// division or tridiagonal sweep. The preconditioner of a two-viscosity predictor
     /// ([`crate::fluid::momentum::HelmholtzPrecond`]).
     pub fn solve_blended(&mut self, grid: &Grid<T>, sigma: T, c: [T; 2], w: &[T], b: &[T], x: &mut [T]) {
+        if let Some(sp) = &mut self.split {
+            return sp.solve_blended(grid, sigma, c, w, b, x);
+        }
         self.gather(grid, b, None);
         self.invert_two(sigma, c);
         self.a
@@ -290,6 +314,9 @@ impl<T: Real> SpectralSolver<T> {
         b: [&[T]; 2],
         x: [&mut [T]; 2],
     ) {
+        if let Some(sp) = &mut self.split {
+            return sp.solve_pair_blended(grid, sigma, c, w, b, x);
+        }
         self.gather(grid, b[0], Some(b[1]));
         self.invert_two(sigma, c);
         let scale = self.ffts(false);
@@ -355,7 +382,7 @@ impl<T: Real> SpectralSolver<T> {
         if len == 1 {
             return;
         }
-        let plan = if forward { self.fwd[axis].clone() } else { self.inv[axis].clone() };
+        let plan = if forward { self.modes.fwd[axis].clone() } else { self.modes.inv[axis].clone() };
         let data = if axis == 0 {
             &mut self.a
         } else {
@@ -381,7 +408,7 @@ impl<T: Real> SpectralSolver<T> {
             // Lines along x are contiguous: one Thomas solve per line.
             let len = n[0];
             let per_lines = (n[1] * n[2]).div_ceil(self.blocks);
-            let lam = &self.lambda;
+            let lam = &self.modes.lambda;
             self.a
                 .par_chunks_mut(per_lines * len)
                 .zip(self.thomas_scratch.par_iter_mut())
@@ -400,7 +427,7 @@ impl<T: Real> SpectralSolver<T> {
         // eliminated upper diagonal of every cell for the back substitution.
         let nx = n[0];
         let plane = nx * n[1];
-        let (lam, cp) = (&self.lambda, &mut self.cp);
+        let (lam, cp) = (&self.modes.lambda, &mut self.cp);
         if w == 1 {
             // Each z-plane is independent: the recurrence runs over its rows j.
             self.a

@@ -201,15 +201,20 @@ struct Workspace<T: Real> {
 }
 
 impl<T: Real> FlowStepper<T> {
-    /// A stepper on `grid`, at rest, with the given materials.
+    /// A stepper on `grid`, at rest, with the given materials. `grid` may be a part of a
+    /// decomposed grid ([`Grid::split`]): every part then makes the same calls, and the step
+    /// is the whole grid's to round-off (docs/architecture.md, "Domain decomposition").
     ///
     /// Errors: non-positive or non-finite materials, invalid solver settings, a grid the direct
-    /// solvers cannot handle (more than one wall axis).
+    /// solvers cannot handle (more than one wall axis; on a part, no second periodic axis), the
+    /// SOR predictor on a part.
     pub fn new(grid: &Grid<T>, materials: Materials<T>, config: FlowConfig) -> Result<Self> {
-        if grid.is_split() {
+        if grid.is_split() && matches!(config.predictor, PredictorSolver::Sor(_)) {
             return Err(Error::Unsupported {
                 component: "FlowStepper",
-                detail: "a part of a decomposed grid: the flow step is not decomposed yet".into(),
+                detail: "SOR on a part of a decomposed grid (its sweeps are sequential): use \
+                         PredictorSolver::Krylov"
+                    .into(),
             });
         }
         materials.rho.validate(grid, "rho")?;
@@ -652,6 +657,7 @@ fn cfl_of<T: Real>(g: &Grid<T>, v: &VectorField<T>, dt: T) -> f64 {
                 .filter(|(row, _)| g.row_jk(*row).is_some())
                 .map(|(_, line)| line.iter().fold(T::zero(), |m, &x| m.max(x.abs())))
                 .reduce(T::zero, |a, b| a.max(b));
+            let [vmax] = g.max_over_parts([vmax]);
             (vmax * dt / h[d]).f64()
         })
         .fold(0.0, f64::max)

@@ -97,6 +97,12 @@ pub trait Exchange: Send + Sync + std::fmt::Debug {
     /// Every part's `mine` (one length on all parts) in part order: `all[p * mine.len()..]`
     /// is part `p`'s.
     fn all_gather(&self, mine: &[f64], all: &mut [f64]);
+
+    /// A personalised exchange: `send` holds one block per part in part order, block `q`
+    /// of `send_counts[q]` values for part `q`; `recv` receives one block from each part in
+    /// part order, block `q` of `recv_counts[q]` values from part `q` (a transpose of a
+    /// distributed array).
+    fn all_to_all(&self, send: &[f64], send_counts: &[usize], recv: &mut [f64], recv_counts: &[usize]);
 }
 
 /// The parts of a decomposed grid as threads of one process: [`LocalParts::new`] makes one
@@ -135,17 +141,19 @@ pub struct LocalParts {
     down: Vec<Sender<Msg>>,
     up: Vec<Sender<Msg>>,
     gather: Vec<Sender<Msg>>,
+    blocks: Vec<Sender<Msg>>,
     /// `from_*[q]`: what part `q` sent this part.
     from_down: Vec<Inbox>,
     from_up: Vec<Inbox>,
     from_gather: Vec<Inbox>,
+    from_blocks: Vec<Inbox>,
 }
 
 impl LocalParts {
     /// One exchange per part, `parts` of them (at least 1), in part order.
     pub fn new(parts: usize) -> Vec<LocalParts> {
         let parts = parts.max(1);
-        let [mut down, mut up, mut gather] = [(); 3].map(|_| mesh(parts));
+        let [mut down, mut up, mut gather, mut blocks] = [(); 4].map(|_| mesh(parts));
         (0..parts)
             .map(|part| LocalParts {
                 part,
@@ -153,9 +161,11 @@ impl LocalParts {
                 down: std::mem::take(&mut down.0[part]),
                 up: std::mem::take(&mut up.0[part]),
                 gather: std::mem::take(&mut gather.0[part]),
+                blocks: std::mem::take(&mut blocks.0[part]),
                 from_down: std::mem::take(&mut down.1[part]),
                 from_up: std::mem::take(&mut up.1[part]),
                 from_gather: std::mem::take(&mut gather.1[part]),
+                from_blocks: std::mem::take(&mut blocks.1[part]),
             })
             .collect()
     }
@@ -223,6 +233,19 @@ impl Exchange for LocalParts {
         }
         for (q, rx) in self.from_gather.iter().enumerate() {
             receive(rx, &mut all[q * mine.len()..(q + 1) * mine.len()]);
+        }
+    }
+
+    fn all_to_all(&self, send: &[f64], send_counts: &[usize], recv: &mut [f64], recv_counts: &[usize]) {
+        let mut at = 0;
+        for (tx, &count) in self.blocks.iter().zip(send_counts) {
+            tx.send(send[at..at + count].to_vec()).expect("every part is alive");
+            at += count;
+        }
+        let mut at = 0;
+        for (rx, &count) in self.from_blocks.iter().zip(recv_counts) {
+            receive(rx, &mut recv[at..at + count]);
+            at += count;
         }
     }
 }
@@ -333,6 +356,16 @@ impl<T: Real> Grid<T> {
         let mut all = vec![0.0; K * parts];
         p.exchange.all_gather(&mine, &mut all);
         std::array::from_fn(|k| (0..parts).fold(T::zero(), |acc, q| acc + T::lit(all[q * K + k])))
+    }
+
+    /// The largest of the parts' values, per entry (`x` itself where the grid is not split):
+    /// every part gets the same result.
+    pub fn max_over_parts<const K: usize>(&self, x: [T; K]) -> [T; K] {
+        let Some(p) = self.part.as_ref().filter(|p| p.exchange.parts() > 1) else { return x };
+        let parts = p.exchange.parts();
+        let mut all = vec![0.0; K * parts];
+        p.exchange.all_gather(&x.map(|v| v.f64()), &mut all);
+        std::array::from_fn(|k| (0..parts).fold(T::lit(all[k]), |m, q| m.max(T::lit(all[q * K + k]))))
     }
 
     /// The part's place, for the ghost filling.

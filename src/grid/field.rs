@@ -117,9 +117,23 @@ impl<T: Real> Field<T> {
         total
     }
 
-    /// The first interior cell holding a NaN or infinity, if any.
+    /// The first interior cell holding a NaN or infinity, if any. On a part of a decomposed
+    /// grid the answer is the whole grid's, on every part: the cell (in the whole grid's
+    /// indices) is the first of all parts'.
     pub fn first_non_finite(&self, grid: &Grid<T>) -> Option<[usize; 3]> {
-        grid.cells().find(|&(i, j, k)| !self.data[grid.idx_u(i, j, k)].is_finite()).map(|(i, j, k)| [i, j, k])
+        let local = grid.cells().find(|&(i, j, k)| !self.data[grid.idx_u(i, j, k)].is_finite());
+        if !grid.is_split() {
+            return local.map(|(i, j, k)| [i, j, k]);
+        }
+        // The first bad cell of all parts: the largest negated linear index of the whole grid.
+        let (o, n) = (grid.offset(), grid.global_cells());
+        let linear = local.map(|(i, j, k)| (i + o[0]) + n[0] * ((j + o[1]) + n[1] * (k + o[2])));
+        let [m] =
+            grid.max_over_parts([linear.map_or(-T::infinity(), |l| -T::from_usize(l).unwrap_or(T::zero()))]);
+        (m > -T::infinity()).then(|| {
+            let l = (-m).to_usize().unwrap_or(0);
+            [l % n[0], (l / n[0]) % n[1], l / (n[0] * n[1])]
+        })
     }
 }
 

@@ -3,6 +3,8 @@
 
 use super::decomposition::Exchange;
 use crate::{Error, Result};
+use mpi::Count;
+use mpi::datatype::{Partition, PartitionMut};
 use mpi::environment::Threading;
 use mpi::point_to_point::send_receive_into_with_tags;
 use mpi::topology::{Communicator, SimpleCommunicator};
@@ -97,5 +99,16 @@ impl Exchange for MpiExchange {
 
     fn all_gather(&self, mine: &[f64], all: &mut [f64]) {
         self.comm.lock().expect("the communicator").all_gather_into(mine, all);
+    }
+
+    fn all_to_all(&self, send: &[f64], send_counts: &[usize], recv: &mut [f64], recv_counts: &[usize]) {
+        let table = |counts: &[usize]| -> (Vec<Count>, Vec<Count>) {
+            let c: Vec<Count> = counts.iter().map(|&x| x as Count).collect();
+            let d = c.iter().scan(0, |at, &x| Some(std::mem::replace(at, *at + x))).collect();
+            (c, d)
+        };
+        let ((sc, sd), (rc, rd)) = (table(send_counts), table(recv_counts));
+        let comm = self.comm.lock().expect("the communicator");
+        comm.all_to_all_varcount_into(&Partition::new(send, sc, sd), &mut PartitionMut::new(recv, rc, rd));
     }
 }

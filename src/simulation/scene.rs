@@ -215,7 +215,9 @@ impl<T: Real> Scene<T> {
     /// Validates the scene and builds the simulation at rest at `t = 0`.
     ///
     /// # Errors
-    /// The first refusal found: [`Error::InvalidParameter`] naming the offending item,
+    /// [`Error::Unsupported`] on a part of a decomposed grid ([`Grid::split`]: capsules are not
+    /// decomposed yet). Then the first refusal found: [`Error::InvalidParameter`] naming the
+    /// offending item,
     /// - what a setter was given: `eb` of [`bending`](Self::bending) not finite and `> 0`, a
     ///   non-finite `body_force[d]`;
     /// - `rho` or `mu` of a [`Phase`] not finite and `> 0`; `epsilon` outside `(0, 1)`;
@@ -252,6 +254,14 @@ impl<T: Real> Scene<T> {
     pub fn build(self) -> Result<Simulation<T>> {
         if let Some(e) = self.errors.into_iter().next() {
             return Err(e);
+        }
+        if self.grid.is_split() {
+            return Err(Error::Unsupported {
+                component: "Scene",
+                detail: "a part of a decomposed grid: capsules are not decomposed yet (a flow without \
+                         capsules runs on parts with fluid::stepper::FlowStepper)"
+                    .into(),
+            });
         }
         Phase::new(self.outside.rho, self.outside.mu)?;
         Phase::new(self.inside.rho, self.inside.mu)?;

@@ -4,6 +4,7 @@
 
 #![allow(dead_code)] // each test file uses its own share
 
+use eulermembrane::fluid::spectral::{Location, SpectralSolver};
 use eulermembrane::grid::{Boundary, Decomposition, Field, GHOST, Grid, SymField, VectorField};
 
 /// A value that differs at every cell and component, so that a misplaced ghost shows.
@@ -115,4 +116,69 @@ pub fn check_part(part: &Grid<f64>, whole_grid: &Grid<f64>, whole: &Whole) -> Re
         same_as_whole(part, &pt.c[c], whole_grid, &whole.t.c[c])?;
     }
     Ok(())
+}
+
+/// The largest difference between `part`'s interior values and the whole grid's at its cells.
+pub fn max_difference(part_grid: &Grid<f64>, part: &[f64], whole_grid: &Grid<f64>, whole: &[f64]) -> f64 {
+    let o = part_grid.offset();
+    part_grid
+        .cells()
+        .map(|(i, j, k)| {
+            (part[part_grid.idx_u(i, j, k)] - whole[whole_grid.idx_u(i + o[0], j + o[1], k + o[2])]).abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Runs `steps` flow steps on `g` (a whole grid or a part) from a sheared, perturbed start,
+/// with a viscosity and a density that vary in space; returns the velocity and the pressure.
+pub fn flow_on(g: &Grid<f64>, steps: usize) -> Result<(VectorField<f64>, Field<f64>), String> {
+    use eulermembrane::fluid::forcing::BodyForce;
+    use eulermembrane::fluid::momentum::{Coefficient, Materials};
+    use eulermembrane::fluid::stepper::{FlowConfig, FlowStepper};
+    use std::f64::consts::TAU;
+    let blob =
+        |x: [f64; 3]| (-((x[0] - 0.6).powi(2) + (x[1] + 0.4).powi(2) + (x[2] - 1.2).powi(2)) * 8.0).exp();
+    let mut mu = Field::from_cell_fn(g, |x| 0.05 + 0.2 * blob(x));
+    let mut rho = Field::from_cell_fn(g, |x| 1.0 + 0.5 * blob(x));
+    mu.fill_ghosts(g);
+    rho.fill_ghosts(g);
+    let materials = Materials { rho: Coefficient::Field(rho), mu: Coefficient::Field(mu) };
+    let mut s = FlowStepper::new(g, materials, FlowConfig::default()).map_err(|e| e.to_string())?;
+    s.set_velocity(|x| {
+        let (a, b, c) = ((TAU * x[0] / 1.3).sin(), (TAU * x[1] / 1.2).cos(), (TAU * x[2] / 1.5).sin());
+        [0.3 * b * c, 0.2 * a * c, 0.1 * a * b]
+    })
+    .map_err(|e| e.to_string())?;
+    let force = BodyForce::new([0.5, -0.2, 0.1]).map_err(|e| e.to_string())?;
+    for _ in 0..steps {
+        s.step(2e-3, &force, None).map_err(|e| e.to_string())?;
+    }
+    Ok((s.velocity().clone(), s.pressure().clone()))
+}
+
+/// Every kind of unknown of the direct solver.
+pub const LOCATIONS: [Location; 4] =
+    [Location::CellNeumann, Location::Velocity(0), Location::Velocity(1), Location::Velocity(2)];
+
+/// The direct solver's four solves on `g` (a whole grid or a part) for unknowns at `location`:
+/// `solve` (singular where the operator is), `solve_pair`, `solve_blended`, `solve_pair_blended`,
+/// the right-hand sides and weights made by [`field`].
+pub fn four_solves(g: &Grid<f64>, location: Location) -> Result<[Vec<f64>; 6], String> {
+    let mut s = SpectralSolver::new(g, location).map_err(|e| e.to_string())?;
+    let (b, b2) = (field(g, 0), field(g, 1));
+    let weight = |c| {
+        let mut w = field(g, c);
+        w.values_mut().iter_mut().for_each(|x| *x += 0.5);
+        w
+    };
+    let (w1, w2) = (weight(2), weight(3));
+    let (b, b2, w1, w2) = (b.values(), b2.values(), w1.values(), w2.values());
+    let (sigma, c) = (3.0, 0.7);
+    let mut x = [(); 6].map(|_| vec![0.0; g.len()]);
+    let [x0, x1, x2, x3, x4, x5] = &mut x;
+    s.solve(g, 0.0, c, b, x0);
+    s.solve_pair(g, sigma, c, [b, b2], [x1, x2]);
+    s.solve_blended(g, sigma, [c, 2.0 * c], w1, b, x3);
+    s.solve_pair_blended(g, sigma, [c, 2.0 * c], [w1, w2], [b, b2], [x4, x5]);
+    Ok(x)
 }
