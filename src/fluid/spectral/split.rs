@@ -10,7 +10,7 @@
 //! and line solve is the whole grid's, in another order of the axes: the result agrees with
 //! the whole grid's to round-off (`tests/decomposition.rs`).
 
-use super::{AxisKind, Closure, Modes, from_lines, solve_line, to_lines};
+use super::{AxisKind, Closure, Modes, eliminate_row, from_lines, solve_line, substitute_row, to_lines};
 use crate::grid::{Decomposition, Exchange, Grid};
 use crate::{Error, Real, Result};
 use rustfft::Fft;
@@ -58,7 +58,7 @@ pub(super) struct SplitSolve<T: Real> {
     b2: Vec<Complex<T>>,
     lines: Vec<Complex<T>>,
     fft_scratch: Vec<Complex<T>>,
-    line: Vec<Complex<T>>,
+    /// The eliminated upper diagonals of the Thomas solves (layout B).
     cp: Vec<T>,
     send: Vec<f64>,
     recv: Vec<f64>,
@@ -92,7 +92,6 @@ impl<T: Real> SplitSolve<T> {
         let modes = Modes::new(n, h);
         let scratch = (0..3).map(|a| modes.scratch_len(a)).max();
         let longest = la.len().max(lb.len());
-        let wall_len = wall.map_or(0, |w| n[w]);
         Ok(SplitSolve {
             n,
             h,
@@ -106,8 +105,7 @@ impl<T: Real> SplitSolve<T> {
             b2: Vec::new(),
             lines: vec![Complex::default(); longest],
             fft_scratch: vec![Complex::default(); scratch.unwrap_or(0)],
-            line: vec![Complex::default(); wall_len],
-            cp: vec![T::zero(); wall_len],
+            cp: vec![T::zero(); if wall.is_some() { lb.len() } else { 0 }],
             send: Vec::with_capacity(2 * longest),
             recv: vec![0.0; 2 * longest],
             la,
@@ -248,9 +246,11 @@ impl<T: Real> SplitSolve<T> {
         for q in 0..parts {
             let (lo, hi) = out_block(q);
             send_counts.push(size((lo, hi)));
-            for_cells(lo, hi, |g| {
-                let v = from[index(from_layout, g)];
-                self.send.extend([v.re.f64(), v.im.f64()]);
+            for_runs(lo, hi, |g, len| {
+                let at = index(from_layout, g);
+                for v in &from[at..at + len] {
+                    self.send.extend([v.re.f64(), v.im.f64()]);
+                }
             });
         }
         let recv_counts: Vec<usize> = (0..parts).map(|p| size(in_block(p))).collect();
@@ -260,9 +260,14 @@ impl<T: Real> SplitSolve<T> {
         let mut at = 0;
         for p in 0..parts {
             let (lo, hi) = in_block(p);
-            for_cells(lo, hi, |g| {
-                to[index(to_layout, g)] = Complex::new(T::lit(self.recv[at]), T::lit(self.recv[at + 1]));
-                at += 2;
+            for_runs(lo, hi, |g, len| {
+                let start = index(to_layout, g);
+                for (v, pair) in
+                    to[start..start + len].iter_mut().zip(self.recv[at..at + 2 * len].chunks_exact(2))
+                {
+                    *v = Complex::new(T::lit(pair[0]), T::lit(pair[1]));
+                }
+                at += 2 * len;
             });
         }
     }
@@ -287,20 +292,42 @@ impl<T: Real> SplitSolve<T> {
             }
             Some(w) => {
                 let closure = Closure { e: c / (self.h[w] * self.h[w]), kind: self.kinds[w] };
-                let stride = [1, d[0], d[0] * d[1]][w];
-                let (mut hi, line, cp) = (d, &mut self.line, &mut self.cp);
-                hi[w] = 1;
-                for_cells([0; 3], hi, |l| {
-                    let g = std::array::from_fn(|a| l[a] + lb.offset[a]);
-                    let base = l[0] + d[0] * (l[1] + d[1] * l[2]);
-                    for (m, v) in line.iter_mut().enumerate() {
-                        *v = data[base + m * stride];
+                let (o, cp) = (lb.offset, &mut self.cp);
+                if w == 0 {
+                    // Lines along x are contiguous: one Thomas solve per line.
+                    for (row, line) in data.chunks_mut(d[0]).enumerate() {
+                        let (j, k) = (row % d[1] + o[1], row / d[1] + o[2]);
+                        solve_line(line, &mut cp[..d[0]], shift([0, j, k], Some(0)), closure);
                     }
-                    solve_line(line, cp, shift(g, Some(w)), closure);
-                    for (m, v) in line.iter().enumerate() {
-                        data[base + m * stride] = *v;
+                    return;
+                }
+                // A wall in y or z: the recurrence runs across x-rows, each row `d[0]`
+                // independent systems (as the whole grid's solver does).
+                let (other, st) = (3 - w, [1, d[0], d[0] * d[1]]);
+                let (len, nx) = (d[w], d[0]);
+                for q in 0..d[other] {
+                    let row = |m: usize| q * st[other] + m * st[w];
+                    let shift_row = |m: usize| {
+                        let mut g = [0, 0, 0];
+                        (g[other], g[w]) = (q + o[other], m + o[w]);
+                        move |i: usize| shift([i + o[0], g[1], g[2]], Some(w))
+                    };
+                    for m in 0..len {
+                        let base = row(m);
+                        let (done, rest) = data.split_at_mut(base);
+                        let (cdone, crest) = cp.split_at_mut(base);
+                        let prev = (m > 0).then(|| {
+                            let p = row(m - 1);
+                            (&done[p..p + nx], &cdone[p..p + nx])
+                        });
+                        eliminate_row(&mut rest[..nx], &mut crest[..nx], prev, m, len, closure, shift_row(m));
                     }
-                });
+                    for m in (0..len - 1).rev() {
+                        let (base, next) = (row(m), row(m + 1));
+                        let (head, tail) = data.split_at_mut(next);
+                        substitute_row(&mut head[base..base + nx], &tail[..nx], &cp[base..base + nx]);
+                    }
+                }
             }
         }
     }
@@ -310,6 +337,15 @@ impl<T: Real> SplitSolve<T> {
 fn index(l: &Layout, g: [usize; 3]) -> usize {
     let c: [usize; 3] = std::array::from_fn(|a| g[a] - l.offset[a]);
     c[0] + l.dims[0] * (c[1] + l.dims[1] * c[2])
+}
+
+/// Calls `f(first cell, length)` on every x-run of `[lo, hi)`, the runs in storage order.
+fn for_runs(lo: [usize; 3], hi: [usize; 3], mut f: impl FnMut([usize; 3], usize)) {
+    for k in lo[2]..hi[2] {
+        for j in lo[1]..hi[1] {
+            f([lo[0], j, k], hi[0] - lo[0]);
+        }
+    }
 }
 
 /// Calls `f` on every cell of `[lo, hi)`, x fastest.
