@@ -178,9 +178,9 @@ impl<T: Real> SpectralSolver<T> {
         if let Some(sp) = &mut self.split {
             return sp.solve(grid, sigma, c, [Some(b), None], [Some(x), None]);
         }
-        self.gather(grid, b, None);
+        gather(grid, &mut self.a, b, None);
         let scale = self.transform(sigma, c);
-        self.scatter(grid, scale, x, None);
+        scatter(grid, &self.a, scale, x, None);
     }
 
     /// Solves two problems with the same operator at once, `b_1 -> x_1` and `b_2 -> x_2`, as
@@ -191,31 +191,10 @@ impl<T: Real> SpectralSolver<T> {
             let [x1, x2] = x;
             return sp.solve(grid, sigma, c, [Some(b[0]), Some(b[1])], [Some(x1), Some(x2)]);
         }
-        self.gather(grid, b[0], Some(b[1]));
+        gather(grid, &mut self.a, b[0], Some(b[1]));
         let scale = self.transform(sigma, c);
         let [x1, x2] = x;
-        self.scatter(grid, scale, x1, Some(x2));
-    }
-
-    /// Gathers the interior values of `re` (and `im`) into the complex work array, x fastest.
-    fn gather(&mut self, grid: &Grid<T>, re: &[T], im: Option<&[T]>) {
-        let [nx, ny, _] = self.n;
-        self.a.par_chunks_mut(nx).with_min_len(min_rows(nx)).enumerate().for_each(|(line, row)| {
-            let base = grid.idx_u(0, line % ny, line / ny);
-            let re = &re[base..base + nx];
-            match im {
-                Some(im) => {
-                    for ((r, &a), &b) in row.iter_mut().zip(re).zip(&im[base..base + nx]) {
-                        *r = Complex::new(a, b);
-                    }
-                }
-                None => {
-                    for (r, &a) in row.iter_mut().zip(re) {
-                        *r = Complex::new(a, T::zero());
-                    }
-                }
-            }
-        });
+        scatter(grid, &self.a, scale, x1, Some(x2));
     }
 
     /// Applies the inverse operator to the work array (FFTs, division or tridiagonal solves,
@@ -281,7 +260,7 @@ impl<T: Real> SpectralSolver<T> {
         if let Some(sp) = &mut self.split {
             return sp.solve_blended(grid, sigma, c, w, b, x);
         }
-        self.gather(grid, b, None);
+        gather(grid, &mut self.a, b, None);
         self.invert_two(sigma, c);
         self.a
             .par_iter_mut()
@@ -317,7 +296,7 @@ impl<T: Real> SpectralSolver<T> {
         if let Some(sp) = &mut self.split {
             return sp.solve_pair_blended(grid, sigma, c, w, b, x);
         }
-        self.gather(grid, b[0], Some(b[1]));
+        gather(grid, &mut self.a, b[0], Some(b[1]));
         self.invert_two(sigma, c);
         let scale = self.ffts(false);
         std::mem::swap(&mut self.a, &mut self.a2);
@@ -342,37 +321,6 @@ impl<T: Real> SpectralSolver<T> {
                     }
                 }
             });
-    }
-
-    /// Scatters the real part of the work array, times `scale`, into the interior of `re`
-    /// (and the imaginary part into `im`).
-    fn scatter(&self, grid: &Grid<T>, scale: T, re: &mut [T], im: Option<&mut [T]>) {
-        let [nx, ny, _] = self.n;
-        let (a, g, dx) = (&self.a, GHOST, grid.dims()[0]);
-        let line_of =
-            |row: usize| grid.row_jk(row).map(|(j, k)| &a[(j + ny * k) * nx..(j + ny * k + 1) * nx]);
-        match im {
-            None => re.par_chunks_mut(dx).with_min_len(min_rows(dx)).enumerate().for_each(|(row, xs)| {
-                if let Some(line) = line_of(row) {
-                    for (xi, r) in xs[g..g + nx].iter_mut().zip(line) {
-                        *xi = r.re * scale;
-                    }
-                }
-            }),
-            Some(im) => re
-                .par_chunks_mut(dx)
-                .zip(im.par_chunks_mut(dx))
-                .with_min_len(min_rows(dx))
-                .enumerate()
-                .for_each(|(row, (xs, ys))| {
-                    if let Some(line) = line_of(row) {
-                        for ((xi, yi), r) in xs[g..g + nx].iter_mut().zip(&mut ys[g..g + nx]).zip(line) {
-                            *xi = r.re * scale;
-                            *yi = r.im * scale;
-                        }
-                    }
-                }),
-        }
     }
 
     /// In-place FFT of `self.a` along `axis`.
@@ -589,6 +537,57 @@ fn solve_line<T: Real>(x: &mut [Complex<T>], cp: &mut [T], shift: T, closure: Cl
     for i in (0..n - 1).rev() {
         let next = x[i + 1];
         x[i] -= next * cp[i];
+    }
+}
+
+/// Gathers the interior values of `re` (and `im`) of `grid` into the complex work array `a`, x
+/// fastest (also a part's layout A, [`split`]).
+fn gather<T: Real>(grid: &Grid<T>, a: &mut [Complex<T>], re: &[T], im: Option<&[T]>) {
+    let [nx, ny, _] = grid.n();
+    a.par_chunks_mut(nx).with_min_len(min_rows(nx)).enumerate().for_each(|(line, row)| {
+        let base = grid.idx_u(0, line % ny, line / ny);
+        let re = &re[base..base + nx];
+        match im {
+            Some(im) => {
+                for ((r, &a), &b) in row.iter_mut().zip(re).zip(&im[base..base + nx]) {
+                    *r = Complex::new(a, b);
+                }
+            }
+            None => {
+                for (r, &a) in row.iter_mut().zip(re) {
+                    *r = Complex::new(a, T::zero());
+                }
+            }
+        }
+    });
+}
+
+/// Scatters the real part of the work array `a`, times `scale`, into the interior of `re` (and the
+/// imaginary part into `im`), the inverse of [`gather`].
+fn scatter<T: Real>(grid: &Grid<T>, a: &[Complex<T>], scale: T, re: &mut [T], im: Option<&mut [T]>) {
+    let [nx, ny, _] = grid.n();
+    let (g, dx) = (GHOST, grid.dims()[0]);
+    let line_of = |row: usize| grid.row_jk(row).map(|(j, k)| &a[(j + ny * k) * nx..(j + ny * k + 1) * nx]);
+    match im {
+        None => re.par_chunks_mut(dx).with_min_len(min_rows(dx)).enumerate().for_each(|(row, xs)| {
+            if let Some(line) = line_of(row) {
+                for (xi, r) in xs[g..g + nx].iter_mut().zip(line) {
+                    *xi = r.re * scale;
+                }
+            }
+        }),
+        Some(im) => {
+            re.par_chunks_mut(dx).zip(im.par_chunks_mut(dx)).with_min_len(min_rows(dx)).enumerate().for_each(
+                |(row, (xs, ys))| {
+                    if let Some(line) = line_of(row) {
+                        for ((xi, yi), r) in xs[g..g + nx].iter_mut().zip(&mut ys[g..g + nx]).zip(line) {
+                            *xi = r.re * scale;
+                            *yi = r.im * scale;
+                        }
+                    }
+                },
+            )
+        }
     }
 }
 

@@ -10,7 +10,10 @@
 //! and line solve is the whole grid's, in another order of the axes: the result agrees with
 //! the whole grid's to round-off (`tests/decomposition.rs`).
 
-use super::{AxisKind, Closure, Modes, eliminate_row, from_lines, solve_line, substitute_row, to_lines};
+use super::{
+    AxisKind, Closure, Modes, eliminate_row, from_lines, gather, scatter, solve_line, substitute_row,
+    to_lines,
+};
 use crate::grid::{Decomposition, Exchange, Grid};
 use crate::{Error, Real, Result};
 use rustfft::Fft;
@@ -386,27 +389,4 @@ fn fft<T: Real>(
 fn rows<T: Real>(grid: &Grid<T>) -> impl Iterator<Item = (usize, usize, usize)> + '_ {
     let [_, ny, nz] = grid.n();
     (0..nz).flat_map(move |k| (0..ny).map(move |j| (j, k, grid.idx_u(0, j, k))))
-}
-
-/// The interior of `re` (and `im`) into layout A's array.
-fn gather<T: Real>(grid: &Grid<T>, a: &mut [Complex<T>], re: &[T], im: Option<&[T]>) {
-    let nx = grid.n()[0];
-    for (line, (_, _, base)) in rows(grid).enumerate() {
-        for (i, v) in a[line * nx..(line + 1) * nx].iter_mut().enumerate() {
-            *v = Complex::new(re[base + i], im.map_or(T::zero(), |im| im[base + i]));
-        }
-    }
-}
-
-/// Layout A's array times `scale` into the interior of `re` (real parts) and `im`.
-fn scatter<T: Real>(grid: &Grid<T>, a: &[Complex<T>], scale: T, re: &mut [T], mut im: Option<&mut [T]>) {
-    let nx = grid.n()[0];
-    for (line, (_, _, base)) in rows(grid).enumerate() {
-        for (i, v) in a[line * nx..(line + 1) * nx].iter().enumerate() {
-            re[base + i] = v.re * scale;
-            if let Some(im) = im.as_deref_mut() {
-                im[base + i] = v.im * scale;
-            }
-        }
-    }
 }
