@@ -22,7 +22,8 @@
 //!   `RESULT case=long_... steps=... volume_drift=... area_drift=... elastic_max=...`.
 //!
 //! Flags: `--n N` (16; cells along x of the 4-wide box), `--mode M`, `--t-end T`, `--only CASE`
-//! (cases; `in_plane` or `bending` for sweep), `--dt DT` (breakup, long), `--steps S` (long), `--case CASE` (long), `--out DIR`
+//! (cases; `in_plane` or `bending` for sweep), `--traction sharp-resampled|sharp|smoothed`
+//! (`smoothed`, the paper's, on which docs/stability.md's tables are measured), `--dt DT` (breakup, long), `--steps S` (long), `--case CASE` (long), `--out DIR`
 //! (`out/stability`: a CSV per mode).
 //!
 //! Run: `cargo run --release --example stability -- --mode sweep`.
@@ -32,7 +33,7 @@ use eulermembrane_cases::stability;
 
 use common::{Args, num, result};
 use eulermembrane::simulation::BendingCoupling;
-use eulermembrane::simulation::MembraneCoupling;
+use eulermembrane::simulation::{MembraneCoupling, Traction};
 use eulermembrane_cases::csv::CsvWriter;
 use stability::{Bracket, Case, Coupling, Search, build, cases, largest_stable_dt, run};
 use std::path::Path;
@@ -42,20 +43,32 @@ fn main() {
     common::exit_on_error(start());
 }
 
-/// The default bending coupling (`BendingCoupling::default()`, which a `const` cannot call).
-const SEMI_IMPLICIT: BendingCoupling = BendingCoupling::SemiImplicit { alpha: 1.0 };
+/// The in-plane couplings compared: quasi-implicit, then explicit (default bending), each with
+/// `traction`.
+fn in_plane_couplings(traction: Traction) -> [Coupling; 2] {
+    let bending = BendingCoupling::default();
+    [MembraneCoupling::QuasiImplicit, MembraneCoupling::Explicit].map(|membrane| Coupling {
+        membrane,
+        bending,
+        traction,
+    })
+}
 
-/// The in-plane couplings compared: quasi-implicit, then explicit (default bending).
-const IN_PLANE: [Coupling; 2] = [
-    Coupling { membrane: MembraneCoupling::QuasiImplicit, bending: SEMI_IMPLICIT },
-    Coupling { membrane: MembraneCoupling::Explicit, bending: SEMI_IMPLICIT },
-];
+/// The bending couplings compared: semi-implicit, then explicit (quasi-implicit in-plane with
+/// `traction`).
+fn bending_couplings(traction: Traction) -> [Coupling; 2] {
+    let membrane = MembraneCoupling::QuasiImplicit;
+    [BendingCoupling::default(), BendingCoupling::Explicit].map(|bending| Coupling {
+        membrane,
+        bending,
+        traction,
+    })
+}
 
-/// The bending couplings compared: semi-implicit, then explicit (quasi-implicit in-plane).
-const BENDING: [Coupling; 2] = [
-    Coupling { membrane: MembraneCoupling::QuasiImplicit, bending: SEMI_IMPLICIT },
-    Coupling { membrane: MembraneCoupling::QuasiImplicit, bending: BendingCoupling::Explicit },
-];
+/// The quasi-implicit coupling with `traction` (the breakup and long modes).
+fn quasi(traction: Traction) -> Coupling {
+    in_plane_couplings(traction)[0]
+}
 
 type Res = Result<(), Box<dyn std::error::Error>>;
 
@@ -63,14 +76,16 @@ fn start() -> Res {
     let args = Args::parse(include_str!("stability.rs"));
     let out = args.out_dir("stability");
     let n: usize = args.get("n", 16);
+    // The tables of docs/stability.md are measured on the paper's smoothed traction.
+    let traction = args.traction(Traction::Smoothed)?;
     match args.get("mode", "cases".to_string()).as_str() {
-        "cases" => all_cases(n, args.get("t-end", 4.0), args.opt("only"), &out),
-        "sweep" => sweep(n, args.opt("only"), &out),
-        "breakup" => breakup(n, args.get("dt", 0.01), args.get("t-end", 6.0), &out),
+        "cases" => all_cases(n, args.get("t-end", 4.0), args.opt("only"), traction, &out),
+        "sweep" => sweep(n, args.opt("only"), traction, &out),
+        "breakup" => breakup(n, args.get("dt", 0.01), args.get("t-end", 6.0), traction, &out),
         "long" => {
             let name: String = args.get("case", "coarse".to_string());
             let case = cases().into_iter().find(|c| c.name == name).unwrap_or(Case::shear("coarse", 0.05));
-            long(&case, args.get("n", 16), args.get("dt", 5e-4), args.get("steps", 10_000), &out)
+            long(&case, args.get("n", 16), args.get("dt", 5e-4), args.get("steps", 10_000), traction, &out)
         }
         m => Err(format!("--mode {m}: one of cases, sweep, breakup, long").into()),
     }
@@ -100,7 +115,7 @@ fn brackets(case: &Case, n: usize, search: Search, couplings: [Coupling; 2]) -> 
     })
 }
 
-fn all_cases(n: usize, t_end: f64, only: Option<String>, out: &Path) -> Res {
+fn all_cases(n: usize, t_end: f64, only: Option<String>, traction: Traction, out: &Path) -> Res {
     let mut csv = CsvWriter::create(
         out.join("cases.csv"),
         &[
@@ -117,7 +132,7 @@ fn all_cases(n: usize, t_end: f64, only: Option<String>, out: &Path) -> Res {
     )?;
     let search = Search { t_end, min_steps: 50, lo: 2.5e-3, hi: 6.4e-2, iters: 5 };
     for case in cases().into_iter().filter(|c| only.as_ref().is_none_or(|o| o == c.name)) {
-        let [q, e] = brackets(&case, n, search, IN_PLANE);
+        let [q, e] = brackets(&case, n, search, in_plane_couplings(traction));
         let ratio = q.stable / e.stable;
         let s = &q.at_stable;
         csv.row(&[
@@ -134,6 +149,7 @@ fn all_cases(n: usize, t_end: f64, only: Option<String>, out: &Path) -> Res {
         result(&[
             ("case", case.name.to_string()),
             ("n", n.to_string()),
+            ("traction", traction.name().to_string()),
             ("dt_quasi", num(q.stable)),
             ("dt_explicit", num(e.stable)),
             ("ratio", num(ratio)),
@@ -156,7 +172,7 @@ fn quiet(e_s: f64, mu: f64, lambda: f64, e_b: f64) -> Case {
 /// One point of the sweep: `(E_s, cells, mu, lambda, E_b)`.
 type Point = (f64, usize, f64, f64, f64);
 
-fn sweep(n: usize, only: Option<String>, out: &Path) -> Res {
+fn sweep(n: usize, only: Option<String>, traction: Traction, out: &Path) -> Res {
     let mut csv = CsvWriter::create(
         out.join("sweep.csv"),
         &["e_s", "h", "mu", "lambda", "e_b", "dt_quasi", "dt_explicit", "ratio"],
@@ -193,10 +209,16 @@ fn sweep(n: usize, only: Option<String>, out: &Path) -> Res {
         let scale = if e_b > 0.0 { mu_mean * h.powi(3) / e_b } else { mu_mean * h / e_s };
         let search = Search { t_end: 0.2, min_steps: 60, lo: scale / 4.0, hi: 1024.0 * scale, iters: 6 };
         // In-plane points compare the in-plane couplings, bending points the bending ones.
-        let [q, e] = brackets(&case, cells, search, if e_b > 0.0 { BENDING } else { IN_PLANE });
+        let [q, e] = brackets(
+            &case,
+            cells,
+            search,
+            if e_b > 0.0 { bending_couplings(traction) } else { in_plane_couplings(traction) },
+        );
         csv.row(&[e_s, h, mu, lambda, e_b, q.stable, e.stable, q.stable / e.stable])?;
         result(&[
             ("case", if e_b > 0.0 { "sweep_bending" } else { "sweep" }.to_string()),
+            ("traction", traction.name().to_string()),
             ("e_s", num(e_s)),
             ("e_b", num(e_b)),
             ("h", num(h)),
@@ -265,7 +287,7 @@ fn fit_power_law(data: &[([f64; 3], f64)]) -> (f64, [f64; 3]) {
     (a[0][4].exp(), [a[1][4], a[2][4], a[3][4]])
 }
 
-fn breakup(n: usize, dt: f64, t_end: f64, out: &Path) -> Res {
+fn breakup(n: usize, dt: f64, t_end: f64, traction: Traction, out: &Path) -> Res {
     let mut csv = CsvWriter::create(
         out.join("breakup.csv"),
         &["ca", "t_reached", "completed", "max_area_drift", "area_drift", "volume_drift", "max_elastic"],
@@ -273,7 +295,7 @@ fn breakup(n: usize, dt: f64, t_end: f64, out: &Path) -> Res {
     let steps = (t_end / dt).round() as usize;
     for ca in [0.2, 0.4, 0.8, 1.6, 3.2, 6.4] {
         let case = Case::shear("breakup", ca);
-        let mut sim = build(&case, n, MembraneCoupling::QuasiImplicit)?;
+        let mut sim = build(&case, n, quasi(traction))?;
         let clock = Instant::now();
         let o = run(&mut sim, &case, dt, steps, 10);
         let t = o.steps as f64 * dt;
@@ -305,8 +327,8 @@ fn breakup(n: usize, dt: f64, t_end: f64, out: &Path) -> Res {
     Ok(())
 }
 
-fn long(case: &Case, n: usize, dt: f64, steps: usize, out: &Path) -> Res {
-    let mut sim = build(case, n, MembraneCoupling::QuasiImplicit)?;
+fn long(case: &Case, n: usize, dt: f64, steps: usize, traction: Traction, out: &Path) -> Res {
+    let mut sim = build(case, n, quasi(traction))?;
     let clock = Instant::now();
     let mut csv =
         CsvWriter::create(out.join("long.csv"), &["step", "volume_drift", "area_drift", "max_elastic"])?;

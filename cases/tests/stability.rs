@@ -231,7 +231,7 @@ fn semi_implicit_bending_allows_twenty_times_the_explicit_step() {
     let h = 4.0 / n as f64;
     let scale = mu * h.powi(3) / e_b;
     let attempt = |bending, dt: f64| {
-        let mut sim = build(&c, n, Coupling { membrane: MembraneCoupling::QuasiImplicit, bending }).unwrap();
+        let mut sim = build(&c, n, Coupling { bending, ..MembraneCoupling::QuasiImplicit.into() }).unwrap();
         run(&mut sim, &c, dt, 60, 5)
     };
     let semi = BendingCoupling::SemiImplicit { alpha: 1.0 };
