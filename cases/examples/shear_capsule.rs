@@ -21,7 +21,8 @@
 //! NaN otherwise); `energy_leak` the energy identity over the last time unit,
 //! `(Delta W - Delta E) / (Delta t mean E)`: the work received less the energy stored, per unit
 //! time and stored energy (0 for a coupling that conserves energy; > 0 lost, < 0 created);
-//! `traction`, `law` and `box` say how it ran.
+//! `repaired` the shell cells whose crushed `G_s` the re-sampled sharp traction re-set over the
+//! run (`StepReport::repaired_cells`); `traction`, `law` and `box` say how it ran.
 //!
 //! Steps: adaptive by default (`simulation::timestep::AdaptiveDt`: Courant target `--cfl`, the membrane
 //! and bending limits, at most `--max-dt`); `--dt DT` takes fixed steps of `DT` instead (the
@@ -285,6 +286,7 @@ fn report(
         ("s0_ratio", num(o.s0_ratio)),
         ("late_change", num(late_change(o))),
         ("energy_leak", num(o.energy_leak)),
+        ("repaired", o.repaired_cells.to_string()),
         ("traction", traction.name().to_string()),
         ("law", case.law.name().to_string()),
         ("box", case.box_radii.map(|l| l.to_string()).join(",")),

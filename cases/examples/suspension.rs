@@ -24,10 +24,12 @@
 //! `RESULT phi=... phi_target=... ca=... n=... cells_per_radius=... capsules=... mu_eff_wall=...
 //! mu_eff_wall_std=... mu_eff_stresslet=... n1=... n2=... d_mean=... incl_deg=... mu_dilute_rigid=...
 //! min_gap_cells=... vol_drift_max=... steps=... wall_s=... t_end=... average_from=... failed_at=...
-//! traction=... contact=... seed=... placement=... box=... storage=...`: the viscosities, `n1`, `n2`, `d_mean` and
+//! repaired=... traction=... contact=... seed=... placement=... box=... storage=...`: the viscosities, `n1`, `n2`, `d_mean` and
 //! `incl_deg` averaged over the samples with `t >= --average-from`; `mu_eff_wall_std` the standard
 //! deviation of the wall estimate over them; `min_gap_cells` the smallest gap over every step;
-//! `failed_at` the time of a step that failed (`none`: the run reached `--t-end`).
+//! `failed_at` the time of a step that failed (`none`: the run reached `--t-end`); `repaired` the
+//! shell cells whose crushed `G_s` the re-sampled sharp traction re-set
+//! (`StepReport::repaired_cells`, summed over the steps of this run).
 //!
 //! Steps: adaptive (`simulation::timestep::AdaptiveDt`, Courant target `--cfl`), at most `--max-dt` and at
 //! most the contact's explicit limit `0.4 mu r / (p0 h)` (the step at which `tests/contact.rs`
@@ -576,6 +578,7 @@ fn run() -> BoxResult<()> {
         ("t_end", format!("{:.4}", sim.time())),
         ("average_from", cfg.average_from.to_string()),
         ("failed_at", outcome.failed_at.map_or("none".to_string(), |t| format!("{t:.4}"))),
+        ("repaired", outcome.repaired.to_string()),
         ("traction", cfg.traction.name().to_string()),
         ("contact", cfg.contact.to_string()),
         ("seed", cfg.seed.to_string()),
@@ -609,6 +612,9 @@ struct Outcome {
     failed_at: Option<f64>,
     /// The capsules' initial volumes.
     v0: Vec<f64>,
+    /// Shell cells whose crushed `G_s` was re-set (`StepReport::repaired_cells`, summed over
+    /// the steps of this run; a restarted run counts from its restart).
+    repaired: usize,
 }
 
 /// Runs `sim` to `--t-end`: samples, progress lines, the history, the ParaView series.
@@ -655,7 +661,7 @@ fn simulate(cfg: &Config, sim: &mut Simulation<f64>, out: &Path) -> BoxResult<Ou
     let (mut pvd, mut next_vtk, mut next_sample) =
         (PvdSeries::new(), after(cfg.vtk_every), after(cfg.sample_every));
     let first = samples.last().map_or(0, |x: &Sample| x.steps);
-    let (mut s, mut dt, mut retries) = (first, 0.0, 0usize);
+    let (mut s, mut dt, mut retries, mut repaired) = (first, 0.0, 0usize, 0usize);
     // The last step's predictor iterations and max|v| (from its Courant number).
     let (mut iterations, mut vmax) = (0usize, 0.0f64);
     let h = cfg.h();
@@ -714,6 +720,7 @@ fn simulate(cfg: &Config, sim: &mut Simulation<f64>, out: &Path) -> BoxResult<Ou
                 dt = report.flow.dt;
                 (iterations, vmax) = (report.flow.predictor_iterations, report.flow.cfl * h / dt);
                 retries += report.retries;
+                repaired += report.repaired_cells;
                 if let Some(w) = report.warning {
                     warned = Some((sim.time(), w));
                 }
@@ -730,5 +737,6 @@ fn simulate(cfg: &Config, sim: &mut Simulation<f64>, out: &Path) -> BoxResult<Ou
     if cfg.vtk_every > 0.0 {
         pvd.write(out.join("suspension.pvd"))?;
     }
-    Ok(Outcome { samples, min_gap, steps: s, wall_s: clock.elapsed().as_secs_f64(), failed_at, v0: probe.v0 })
+    let wall_s = clock.elapsed().as_secs_f64();
+    Ok(Outcome { samples, min_gap, steps: s, wall_s, failed_at, v0: probe.v0, repaired })
 }

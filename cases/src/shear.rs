@@ -194,6 +194,9 @@ pub struct ShearOutcome {
     /// per unit time and per unit of stored energy (positive: energy lost, as a dissipative
     /// scheme would; negative: energy created). NaN without a stored energy.
     pub energy_leak: f64,
+    /// Core cells of the re-sampled sharp shell whose crushed `G_s` was re-set over the run
+    /// (`StepReport::repaired_cells`, summed).
+    pub repaired_cells: usize,
 }
 
 impl ShearOutcome {
@@ -332,6 +335,7 @@ pub fn run<T: Real>(
     let (mut p_last, mut work) = (power(&mut sim, case.dt)?, 0.0);
     // The last step's Courant number, and the retries and warnings since the last progress line.
     let (mut courant, mut retries, mut warned) = (0.0, 0usize, None);
+    let mut repaired_cells = 0;
     loop {
         let t = sim.time().f64();
         // Whether to sample, and whether this is the last step (fixed steps know it, adaptive
@@ -424,6 +428,7 @@ pub fn run<T: Real>(
         p_last = p;
         courant = report.flow.cfl;
         retries += report.retries;
+        repaired_cells += report.repaired_cells;
         if let Some(w) = report.warning {
             warned = Some((sim.time().f64(), w));
         }
@@ -450,6 +455,7 @@ pub fn run<T: Real>(
     };
     Ok(ShearOutcome {
         energy_leak,
+        repaired_cells,
         d_steady: mean(|s| s.d),
         angle_steady: mean(|s| s.angle_deg),
         d_ellipsoid_steady: mean(|s| s.d_ellipsoid),

@@ -42,10 +42,24 @@
 //!   (The transfer of `τ_o` rather than of `2 G_k ∂e/∂G_o` is exact where the core cells of a
 //!   stencil agree, `G_k = R_kᵀ (A G)_o R_k`, and first-order in their difference otherwise.)
 //!
+//! # Crushed core layers
+//!
+//! The core layers keep their own transport, and one of them can be crushed too: outside a part
+//! of the surface that is flattened or dented (the side of a capsule that faces a wall or a
+//! neighbour) the medial axis of the shell comes within [`RESAMPLE_DEPTH`]. Such a layer's
+//! area ratio `J_s` falls towards zero (and its `G_s` can turn indefinite), its stress grows
+//! without bound, and the fluid velocity on one face next to it alternates in sign from step
+//! to step, whatever the step (a 6-capsule suspension at 5 cells per radius: `max|v|` 35 against
+//! the walls' 3.9, in steps of 0.0017). [`OuterLayers::repair`] re-sets, after every step and
+//! before [`OuterLayers::resample`], each core cell whose `J_s` is below [`MIN_AREA_RATIO`] to the
+//! closest-point extension of the healthy core, as it sets the outer cells (docs/validation/
+//! shear_capsule.md: none at Ca = 0.0125, 236 cells in 1262 steps at Ca = 0.2, N = 64).
+//!
 //! Not in the paper: the paper's shell has no sharp velocity and no crushed layers.
 
 use super::band::{Band, band_spacing};
 use super::extension::{Point, trilinear};
+use super::stress::surface_kinematics;
 use crate::grid::ops::cell_vector;
 use crate::grid::{Field, Grid, SymField};
 use crate::interface::geometry::psi_of;
@@ -59,6 +73,11 @@ use std::sync::{Mutex, MutexGuard};
 /// along the normal; 1.5 cells keeps it within the core layers nearly everywhere, and the band
 /// reaches 2.65 cells (`ε` = 0.01, `β` = 1), so that one layer on each side is outer.
 pub const RESAMPLE_DEPTH: f64 = 1.5;
+
+/// The smallest area ratio `J_s = √c2` ((2.3b)) a core layer may carry: a layer squeezed
+/// below half its reference area is crushed, not a sample of the membrane
+/// ([`OuterLayers::repair`]).
+pub const MIN_AREA_RATIO: f64 = 0.5;
 
 /// Outer cells per rayon task.
 const MIN_CELLS_PER_TASK: usize = 128;
@@ -119,6 +138,8 @@ pub struct OuterLayers<T> {
     users: Vec<(u32, u8)>,
     /// One value per stencil (scratch of the parallel passes).
     values: Mutex<Vec<Sym<T>>>,
+    /// The crushed core cells' stencils and new values (scratch of [`OuterLayers::repair`]).
+    repairs: Mutex<Vec<(Stencil<T>, Sym<T>)>>,
     generation: u64,
 }
 
@@ -137,6 +158,7 @@ impl<T: Real> OuterLayers<T> {
             starts: Vec::new(),
             users: Vec::new(),
             values: Mutex::new(Vec::new()),
+            repairs: Mutex::new(Vec::new()),
             generation: 0,
         })
     }
@@ -187,40 +209,9 @@ impl<T: Real> OuterLayers<T> {
                 self.stencils.push(Stencil { outer, p: projector(&n), entries: [zero; 8], len: 0 });
             }
         }
-        let coords = band.coords(0);
+        let is_core = |k: usize| depth_of(band.cells()[k]) <= depth;
         self.stencils.par_iter_mut().with_min_len(MIN_CELLS_PER_TASK).for_each(|st| {
-            let q = st.outer as usize;
-            let idx = band.cells()[q];
-            let n = cell_vector(normal, idx);
-            let ijk = coords[q].map(|x| x as isize);
-            let x = grid.cell_center(ijk[0], ijk[1], ijk[2]);
-            let s = psi_of(phi.data[idx]) * scale;
-            let xg: [T; 3] = std::array::from_fn(|d| x[d] - s * n[d]);
-            let Some(corners) = Point::new(grid, &xg).and_then(|p| trilinear(grid, None, &p)) else {
-                return;
-            };
-            let mut weight = T::zero();
-            for (at, w) in corners {
-                // Band cells only (the stencil's periodic corners are wrapped already; a ghost
-                // across a wall is in no band).
-                let Some(k) = band.position(at).filter(|&k| k < band.len()) else { continue };
-                let j = band.cells()[k];
-                if w == T::zero() || depth_of(j) > depth {
-                    continue;
-                }
-                let Some(r) = rotation_taking(&cell_vector(normal, j), &n) else { continue };
-                st.entries[st.len as usize] = Entry { core: k as u32, w, r };
-                st.len += 1;
-                weight += w;
-            }
-            if weight > T::lit(1e-3) {
-                let len = st.len as usize;
-                for e in &mut st.entries[..len] {
-                    e.w /= weight;
-                }
-            } else {
-                st.len = 0;
-            }
+            closest_point_stencil(grid, band, phi, normal, scale, st, is_core);
         });
         // The reverse map, by counting.
         self.starts.clear();
@@ -275,6 +266,75 @@ impl<T: Real> OuterLayers<T> {
         Ok(())
     }
 
+    /// Re-sets `G_s` of every crushed core cell, one whose area ratio `J_s` is below
+    /// [`MIN_AREA_RATIO`] (or that has no area at all), to the closest-point extension of the
+    /// core cells that are not crushed, as [`resample`](Self::resample) sets the outer cells (an
+    /// orphan to `P`), and returns how many it re-set. Run before `resample` (which reads the
+    /// core), on the band, `phi` and normals the layers were built on.
+    ///
+    /// Why: with the sharp velocity a layer at depth `s` keeps `(1 − s κ₁)(1 − s κ₂)` of the
+    /// surface's area, which vanishes where the layer meets a medial axis of the shell; outside a
+    /// flattened or dented part of the surface that happens within [`RESAMPLE_DEPTH`], and the
+    /// stress of the crushed layer, whose energy grows without bound as `J_s → 0`, drives a
+    /// velocity that alternates in sign from step to step at one face, at any step size.
+    ///
+    /// # Errors
+    /// [`Error::Unsupported`] unless the layers were built on `band`;
+    /// [`Error::InvalidParameter`] naming `gs`, `phi` or `normal` for a field of another grid.
+    pub fn repair(
+        &self,
+        band: &Band<T>,
+        phi: &Field<T>,
+        normal: &[Field<T>; 3],
+        gs: &mut SymField<T>,
+    ) -> Result<usize> {
+        self.check_band(band)?;
+        let len = self.grid.len();
+        for (name, bad) in [
+            ("gs", gs.c.iter().any(|f| f.data.len() != len)),
+            ("phi", phi.data.len() != len),
+            ("normal", normal.iter().any(|f| f.data.len() != len)),
+        ] {
+            if bad {
+                return Err(Error::invalid(name, "a field of another grid", "a field of the band's grid"));
+            }
+        }
+        let grid = &self.grid;
+        let cells = band.cells();
+        let scale = band_spacing(grid) / self.beta;
+        let depth = T::lit(RESAMPLE_DEPTH) * band_spacing(grid);
+        let min_c2 = T::lit(MIN_AREA_RATIO * MIN_AREA_RATIO);
+        let mut repairs = self.repairs.lock().unwrap_or_else(|p| p.into_inner());
+        repairs.clear();
+        {
+            let read: &SymField<T> = gs;
+            let is_core = |k: usize| (psi_of(phi.data[cells[k]]) * scale).abs() <= depth;
+            // A NaN invariant is crushed too.
+            let crushed = |k: usize| {
+                let n = cell_vector(normal, cells[k]);
+                let c2 = surface_kinematics(&read.get(cells[k]), &n).c2;
+                is_core(k) && (c2 < min_c2 || c2.is_nan())
+            };
+            let zero = Entry { core: 0, w: T::zero(), r: [[T::zero(); 3]; 3] };
+            for k in 0..band.len() {
+                let n = cell_vector(normal, cells[k]);
+                // A NaN normal compares false: no tangent plane, nothing to repair.
+                if dot(&n, &n) > T::lit(0.5) && crushed(k) {
+                    let st = Stencil { outer: k as u32, p: projector(&n), entries: [zero; 8], len: 0 };
+                    repairs.push((st, [T::zero(); 6]));
+                }
+            }
+            repairs.par_iter_mut().with_min_len(MIN_CELLS_PER_TASK).for_each(|(st, value)| {
+                closest_point_stencil(grid, band, phi, normal, scale, st, |k| is_core(k) && !crushed(k));
+                *value = st.interpolate(|k| read.get(cells[k])).unwrap_or(st.p);
+            });
+        }
+        for (st, value) in repairs.iter() {
+            gs.set(cells[st.outer as usize], value);
+        }
+        Ok(repairs.len())
+    }
+
     /// `x_o = (A x)_o` for every outer cell (zero for an orphan), `x` one value per band cell
     /// (in the order of [`Band::cells`]); the core values are not touched.
     pub fn gather(&self, x: &mut [Sym<T>]) {
@@ -323,6 +383,54 @@ impl<T: Real> OuterLayers<T> {
             .with_min_len(MIN_CELLS_PER_TASK)
             .for_each(|(v, st)| *v = value(st));
         values
+    }
+}
+
+/// Fills the entries of `st` (its cell `st.outer` a band cell with a unit normal): the band
+/// cells of the trilinear stencil around its closest surface point `x − s n` that `source`
+/// accepts (by band position), with their weights renormalised to sum to one and the rotations
+/// taking their normals to the cell's; none where their weights sum to at most `1e-3` (an
+/// orphan). `scale` is `h / β`, so that `s = ψ(φ) scale`.
+fn closest_point_stencil<T: Real>(
+    grid: &Grid<T>,
+    band: &Band<T>,
+    phi: &Field<T>,
+    normal: &[Field<T>; 3],
+    scale: T,
+    st: &mut Stencil<T>,
+    source: impl Fn(usize) -> bool,
+) {
+    st.len = 0;
+    let q = st.outer as usize;
+    let idx = band.cells()[q];
+    let n = cell_vector(normal, idx);
+    let ijk = band.coords(0)[q].map(|x| x as isize);
+    let x = grid.cell_center(ijk[0], ijk[1], ijk[2]);
+    let s = psi_of(phi.data[idx]) * scale;
+    let xg: [T; 3] = std::array::from_fn(|d| x[d] - s * n[d]);
+    let Some(corners) = Point::new(grid, &xg).and_then(|p| trilinear(grid, None, &p)) else {
+        return;
+    };
+    let mut weight = T::zero();
+    for (at, w) in corners {
+        // Band cells only (the stencil's periodic corners are wrapped already; a ghost across a
+        // wall is in no band).
+        let Some(k) = band.position(at).filter(|&k| k < band.len()) else { continue };
+        if w == T::zero() || !source(k) {
+            continue;
+        }
+        let Some(r) = rotation_taking(&cell_vector(normal, band.cells()[k]), &n) else { continue };
+        st.entries[st.len as usize] = Entry { core: k as u32, w, r };
+        st.len += 1;
+        weight += w;
+    }
+    if weight > T::lit(1e-3) {
+        let len = st.len as usize;
+        for e in &mut st.entries[..len] {
+            e.w /= weight;
+        }
+    } else {
+        st.len = 0;
     }
 }
 
@@ -403,6 +511,70 @@ mod tests {
             let expected = match depth(&phi, idx) > RESAMPLE_DEPTH {
                 true => projector(&cell_vector(&normal, idx)),
                 false => value,
+            };
+            assert_eq!(gs.get(idx), expected);
+        }
+    }
+
+    /// Crushed core cells (`J_s` below [`MIN_AREA_RATIO`], or no area at all) take the strain of
+    /// the healthy core around their closest point; every other cell is left as it was.
+    #[test]
+    fn crushed_core_cells_take_the_strain_of_the_healthy_core() {
+        let (g, phi, normal, band) = sphere(32);
+        let l = layers(&g, &band, &phi, &normal);
+        let a = 1.3;
+        let mut gs = SymField::zeros(&g);
+        let mut crushed = Vec::new();
+        for (k, &idx) in band.cells().iter().enumerate() {
+            let p = projector(&cell_vector(&normal, idx));
+            let core = depth(&phi, idx) <= RESAMPLE_DEPTH;
+            // Every 23rd core cell crushed: `J_s` 0.45, or a NaN.
+            let value = match (core, k % 23) {
+                (true, 0) => p.map(|x| 0.45 * x),
+                (true, 11) => p.map(|_| f64::NAN),
+                _ => p.map(|x| a * x),
+            };
+            if core && matches!(k % 23, 0 | 11) {
+                crushed.push(idx);
+            }
+            gs.set(idx, &value);
+        }
+        let before = gs.clone();
+        assert_eq!(l.repair(&band, &phi, &normal, &mut gs).unwrap(), crushed.len());
+        assert!(crushed.len() > 100);
+        for &idx in band.cells() {
+            if crushed.contains(&idx) {
+                let expected = projector(&cell_vector(&normal, idx)).map(|x| a * x);
+                let err = gs.get(idx).iter().zip(&expected).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+                assert!(err < 1e-12, "repaired cell {idx}: deviation {err}");
+            } else {
+                assert_eq!(gs.get(idx), before.get(idx));
+            }
+        }
+        // A stretch that is not crushed (`J_s` 0.55) is left alone.
+        let idx = crushed[0];
+        let mild = projector(&cell_vector(&normal, idx)).map(|x| 0.55 * x);
+        gs.set(idx, &mild);
+        assert_eq!(l.repair(&band, &phi, &normal, &mut gs).unwrap(), 0);
+        assert_eq!(gs.get(idx), mild);
+    }
+
+    /// A crushed core with no healthy core cell around its closest point is re-set to `P`.
+    #[test]
+    fn crushed_core_without_a_healthy_one_is_reset() {
+        let (g, phi, normal, band) = sphere(32);
+        let l = layers(&g, &band, &phi, &normal);
+        let mut gs = SymField::zeros(&g);
+        let crushed = [0.1, 0.0, 0.0, 0.0, 0.0, 0.0];
+        for &idx in band.cells() {
+            gs.set(idx, &crushed);
+        }
+        let core = band.cells().iter().filter(|&&i| depth(&phi, i) <= RESAMPLE_DEPTH).count();
+        assert_eq!(l.repair(&band, &phi, &normal, &mut gs).unwrap(), core);
+        for &idx in band.cells() {
+            let expected = match depth(&phi, idx) <= RESAMPLE_DEPTH {
+                true => projector(&cell_vector(&normal, idx)),
+                false => crushed,
             };
             assert_eq!(gs.get(idx), expected);
         }

@@ -113,6 +113,11 @@ pub struct StepReport {
     /// Attempts at this step that an [`AdaptiveDt`](timestep::AdaptiveDt) rejected and retried smaller (0 for a
     /// step taken as asked).
     pub retries: usize,
+    /// Core cells of the re-sampled sharp shells ([`Traction::SharpResampled`]) whose crushed
+    /// `G_s` was re-set from the surface after the step
+    /// ([`OuterLayers::repair`](crate::membrane::outer_layers::OuterLayers::repair); all
+    /// capsules).
+    pub repaired_cells: usize,
 }
 
 /// A warning carried by a [`StepReport`]: the step was taken, but its result may not be
@@ -441,7 +446,8 @@ impl<T: Real> Simulation<T> {
         } else {
             (dt.f64() > limit).then_some(StepWarning::DtAboveLimit { dt: dt.f64(), limit })
         };
-        let report = StepReport { flow: flow_info, profile_cells, band_cells, warning, retries: 0 };
+        let report =
+            StepReport { flow: flow_info, profile_cells, band_cells, warning, retries: 0, repaired_cells: 0 };
         self.pending = Some(Pending { report, dissipated, work });
         Ok(report)
     }
@@ -456,6 +462,7 @@ impl<T: Real> Simulation<T> {
             v_old.copy_from(self.flow.velocity());
         }
         self.flow.commit()?;
+        let mut repaired = 0;
         for cap in &mut self.capsules {
             if let (Some(strain), Some(gs)) = (cap.strain.as_mut(), cap.gs.as_mut()) {
                 strain.commit(&cap.next.band, &cap.next.normal, gs)?;
@@ -470,6 +477,7 @@ impl<T: Real> Simulation<T> {
                 // The re-sampled sharp shell carries the surface's deformation in its outer
                 // layers too.
                 if let Some(layers) = cap.extension.as_ref().and_then(SurfaceExtension::outer_layers) {
+                    repaired += layers.repair(&cap.next.band, &cap.next.phi, &cap.next.normal, gs)?;
                     layers.resample(&cap.next.band, gs)?;
                 }
             }
@@ -513,7 +521,7 @@ impl<T: Real> Simulation<T> {
             self.capsule_grids[c] = cap.boxed.grid.clone();
             self.box_resized(&[c])?;
         }
-        Ok(p.report)
+        Ok(StepReport { repaired_cells: repaired, ..p.report })
     }
 
     /// Tells every effect that the boxes of `capsules` have grown.
