@@ -59,10 +59,8 @@
 //!
 //! Run: `cargo run --release -p eulermembrane-cases --example suspension` (6 capsules,
 //! `phi` = 0.098, 5 cells per radius, 40 x 20 x 40 cells: about 3 minutes of CPU). At 4 cells
-//! per radius (`--n 32 --gap 1`) the capsules deform more (`D` 0.35, some 0.43), their films
-//! close to a cell, and from `t` = 2 on steps are retried after predictor solves that do not
-//! converge (`max|v|` jumps to 2-4 times the wall speed): a step then costs twenty times more; see
-//! `docs/validation/suspension.md`.
+//! per radius (`--n 32 --gap 1`, about 2.5 minutes) the films close to a third of a cell and the
+//! averages are not steady by `t` = 4; see `docs/validation/suspension.md`.
 
 use eulermembrane_cases as common;
 
